@@ -1,0 +1,359 @@
+"""The material interface shared by the homogeneous drivers, calibration and the MPM solver.
+
+A material is a frozen, keyword-only dataclass of named parameters. Each
+parameter is declared with :func:`parameter`, which records its unit, its valid
+range and a start value for calibration; values are validated when the object
+is built, and a bad value raises :class:`ParameterError` naming the parameter and
+its valid range.
+
+Solver-facing interface (all a solver needs to know about a law)
+-----------------------------------------------------------------
+``pack()``
+    1-D float array: header ``[rho0, K_wave, G_wave]`` followed by the law's own
+    parameters (:data:`HEADER` entries; the law's data start at
+    :data:`PRM_OFFSET`).
+``state_vars`` / ``n_state`` / ``initial_state()``
+    The law's history variables. The solver allocates an ``(n, n_state)`` array,
+    double-buffers it and carries it without interpreting it.
+``stress_function(precision)``
+    A ``@wp.func`` with the signature::
+
+        stress(F: mat33, L: mat33, a0: vec3, prm: wp.array(dtype=scalar),
+               s_in: wp.array2d(dtype=scalar), s_out: wp.array2d(dtype=scalar),
+               p: int, dt: scalar) -> mat33
+
+    returning the Cauchy stress [Pa] (tension positive) for deformation gradient
+    ``F``, velocity gradient ``L`` [1/s], reference fiber direction ``a0`` (unit
+    vector, ignored by isotropic laws), parameters ``prm`` (from ``pack()``),
+    history row ``s_in[p]`` at the start of the step and time step ``dt`` [s].
+    It must write every entry of ``s_out[p]`` (copying those that do not change).
+``moduli_function(precision)``
+    A ``@wp.func`` ``moduli(F, a0, prm, s_in, p) -> (K, G)`` giving the
+    instantaneous bulk and shear moduli [Pa] used for the dilatational wave
+    speed (Ionescu et al. 2006, eq. 9)::
+
+        c = sqrt((K + 4 G / 3) / rho),   rho = rho0 / J.
+
+    The default returns the header's ``K_wave`` and ``G_wave``, which each law
+    sets from :meth:`Material.wave_moduli`.
+"""
+
+
+import dataclasses
+import functools
+import math
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+import warp as wp
+
+from tissuempm.precision import WarpTypes, warp_types
+
+HEADER: tuple[str, ...] = ("density", "K_wave", "G_wave")
+"""Names of the leading entries of every packed parameter vector."""
+PRM_DENSITY = 0
+PRM_K_WAVE = 1
+PRM_G_WAVE = 2
+PRM_OFFSET = len(HEADER)
+"""Index of the first law-specific entry of a packed parameter vector."""
+
+MATERIALS: dict[str, type["Material"]] = {}
+"""Registry of material laws by :attr:`Material.kind`."""
+
+
+class ParameterError(ValueError):
+    """A material parameter is missing, not finite or outside its valid range."""
+
+
+def parameter(
+    unit: str,
+    *,
+    default: Any = dataclasses.MISSING,
+    gt: float | None = None,
+    ge: float | None = None,
+    lt: float | None = None,
+    le: float | None = None,
+    start: float | None = None,
+    doc: str = "",
+) -> Any:
+    """Declare a material parameter as a dataclass field.
+
+    Parameters
+    ----------
+    unit
+        SI unit of the value (``"Pa"``, ``"1"``, ``"s"``, ``"kg/m^3"``, ...).
+    default
+        Default value; a tuple for parameters with one value per term.
+    gt, ge, lt, le
+        Valid range (strict or inclusive bounds), checked for every element.
+    start
+        Start value for calibration (defaults to ``default``).
+    doc
+        One-line meaning of the parameter.
+    """
+    metadata = {"unit": unit, "gt": gt, "ge": ge, "lt": lt, "le": le, "start": start, "doc": doc}
+    return field(default=default, metadata=metadata)
+
+
+def describe_range(meta: dict[str, Any]) -> str:
+    """Human-readable valid range of a parameter, e.g. ``"> 0 Pa"``."""
+    parts = []
+    for key, op in (("gt", ">"), ("ge", ">="), ("lt", "<"), ("le", "<=")):
+        if meta.get(key) is not None:
+            parts.append(f"{op} {meta[key]:g}")
+    unit = meta.get("unit", "")
+    text = " and ".join(parts) if parts else "finite"
+    return f"{text} {unit}".strip() if unit and unit != "1" else text
+
+
+def _check_value(owner: str, name: str, value: float, meta: dict[str, Any]) -> None:
+    rng = describe_range(meta)
+    if not isinstance(value, (int, float, np.floating, np.integer)) or isinstance(value, bool):
+        raise ParameterError(f"{owner}.{name} = {value!r} is not a number (valid range: {rng})")
+    v = float(value)
+    ok = math.isfinite(v)
+    if ok and meta.get("gt") is not None:
+        ok = v > meta["gt"]
+    if ok and meta.get("ge") is not None:
+        ok = v >= meta["ge"]
+    if ok and meta.get("lt") is not None:
+        ok = v < meta["lt"]
+    if ok and meta.get("le") is not None:
+        ok = v <= meta["le"]
+    if not ok:
+        raise ParameterError(f"{owner}.{name} = {value!r} is out of range: valid range is {rng}")
+
+
+@dataclass(frozen=True)
+class StateVar:
+    """A history variable of a material law.
+
+    Attributes
+    ----------
+    name
+        Name used in output files.
+    size
+        Number of scalar slots.
+    initial
+        Initial value of each slot (a float for all slots, or a tuple of ``size``).
+    doc
+        Meaning and unit.
+    """
+
+    name: str
+    size: int = 1
+    initial: float | tuple[float, ...] = 0.0
+    doc: str = ""
+
+    def initial_values(self) -> np.ndarray:
+        """Initial values as an array of length ``size``."""
+        if isinstance(self.initial, tuple):
+            return np.asarray(self.initial, dtype=float)
+        return np.full(self.size, float(self.initial))
+
+
+@dataclass(frozen=True, kw_only=True)
+class Material:
+    """Base of all constitutive laws (see the module docstring for the interface)."""
+
+    kind: ClassVar[str] = ""
+    """Registry name of the law (e.g. ``"neo_hookean"``)."""
+    state_vars: ClassVar[tuple[StateVar, ...]] = ()
+    """History variables, in storage order."""
+    anisotropic: ClassVar[bool] = False
+    """True when the law uses the fiber direction ``a0``."""
+
+    density: float = parameter("kg/m^3", default=1000.0, gt=0.0, doc="reference mass density rho0")
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if cls.__dict__.get("kind"):
+            MATERIALS[cls.kind] = cls
+
+    def __post_init__(self) -> None:
+        owner = type(self).__name__
+        for f in dataclasses.fields(self):
+            if "unit" not in f.metadata:
+                continue
+            value = getattr(self, f.name)
+            if isinstance(value, (tuple, list)):
+                if isinstance(value, list):
+                    object.__setattr__(self, f.name, tuple(value))
+                for i, v in enumerate(value):
+                    _check_value(owner, f"{f.name}[{i}]", v, f.metadata)
+            else:
+                _check_value(owner, f.name, value, f.metadata)
+        self.check()
+
+    @classmethod
+    def example(cls) -> "Material":
+        """A representative, valid instance (used by the conformance tests and docs)."""
+        return cls()
+
+    # ------------------------------------------------------------------ validation
+    def check(self) -> None:
+        """Check relations between parameters; raise :class:`ParameterError` if violated."""
+
+    # ------------------------------------------------------------------ parameters
+    @classmethod
+    def parameter_fields(cls) -> tuple[dataclasses.Field, ...]:
+        """Dataclass fields declared with :func:`parameter` (those with a unit)."""
+        return tuple(f for f in dataclasses.fields(cls) if "unit" in f.metadata)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Parameters as a plain dict with ``kind``; :func:`from_dict` inverts it."""
+        out: dict[str, Any] = {"kind": self.kind}
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            out[f.name] = list(v) if isinstance(v, tuple) else v
+        return out
+
+    def replace(self, **changes: Any) -> "Material":
+        """A copy with some parameters changed (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+    # ------------------------------------------------------------------ solver interface
+    def small_strain_moduli(self) -> tuple[float, float]:
+        """Initial bulk and shear moduli ``(K0, G0)`` [Pa] of the unstrained material."""
+        raise NotImplementedError
+
+    def wave_moduli(self) -> tuple[float, float]:
+        """Bulk and shear moduli [Pa] for the header of :meth:`pack`.
+
+        Laws that stiffen strongly should return a conservative (large) value or
+        override :meth:`moduli_function`.
+        """
+        return self.small_strain_moduli()
+
+    def wave_speed(self, J: float = 1.0) -> float:
+        """Dilatational wave speed c = sqrt((K + 4G/3) / (rho0 / J)) [m/s] from :meth:`wave_moduli`."""
+        K, G = self.wave_moduli()
+        return math.sqrt((K + 4.0 * G / 3.0) * J / self.density)
+
+    def law_parameters(self) -> list[float]:
+        """The law's own packed parameters (after the header).
+
+        The default flattens the :func:`parameter` fields other than ``density``
+        in declaration order; a tuple field is written as its length followed
+        by its values. Laws with non-numeric options override this.
+        """
+        out: list[float] = []
+        for f in self.parameter_fields():
+            if f.name == "density":
+                continue
+            v = getattr(self, f.name)
+            if isinstance(v, tuple):
+                out.append(float(len(v)))
+                out.extend(float(x) for x in v)
+            else:
+                out.append(float(v))
+        return out
+
+    def pack(self) -> np.ndarray:
+        """Packed parameter vector ``[rho0, K_wave, G_wave, *law_parameters()]`` (float64)."""
+        K, G = self.wave_moduli()
+        return np.asarray([self.density, K, G, *self.law_parameters()], dtype=np.float64)
+
+    @property
+    def n_state(self) -> int:
+        """Number of history slots per particle."""
+        return sum(v.size for v in self.state_vars)
+
+    def state_layout(self) -> dict[str, slice]:
+        """Slice of each history variable in a state row."""
+        out, i = {}, 0
+        for v in self.state_vars:
+            out[v.name] = slice(i, i + v.size)
+            i += v.size
+        return out
+
+    def initial_state(self) -> np.ndarray:
+        """Initial history row (length :attr:`n_state`, at least 1 so arrays are never empty)."""
+        if not self.state_vars:
+            return np.zeros(1)
+        return np.concatenate([v.initial_values() for v in self.state_vars])
+
+    @classmethod
+    def stress_function(cls, precision: str = "float64") -> Any:
+        """The law's Cauchy stress ``@wp.func`` for ``precision`` (built once, cached)."""
+        return _cached_build(cls, "_build_stress", precision)
+
+    @classmethod
+    def moduli_function(cls, precision: str = "float64") -> Any:
+        """The law's instantaneous ``(K, G)`` ``@wp.func`` for ``precision`` (cached)."""
+        return _cached_build(cls, "_build_moduli", precision)
+
+    @classmethod
+    def _build_stress(cls, t: WarpTypes) -> Any:
+        raise NotImplementedError(f"{cls.__name__} has no Warp stress function")
+
+    @classmethod
+    def _build_moduli(cls, t: WarpTypes) -> Any:
+        return header_moduli(t)
+
+    # ------------------------------------------------------------------ verification
+    has_strain_energy: ClassVar[bool] = False
+    """True when :meth:`strain_energy` is implemented (hyperelastic laws)."""
+
+    def strain_energy(self, F: np.ndarray, a0: np.ndarray | None = None) -> float:
+        """Strain energy per unit reference volume W(F) [J/m^3] (NumPy), for hyperelastic laws."""
+        raise NotImplementedError(f"{type(self).__name__} has no strain energy")
+
+
+@functools.cache
+def _cached_build(cls: type, method: str, precision: str) -> Any:
+    return getattr(cls, method)(warp_types(precision))
+
+
+@functools.cache
+def header_moduli(t: WarpTypes) -> Any:
+    """``moduli(F, a0, prm, s_in, p) -> (K, G)`` reading the packed header (constant moduli)."""
+
+    @wp.func
+    def moduli(
+        F: t.mat33, a0: t.vec3, prm: wp.array(dtype=t.scalar), s_in: wp.array2d(dtype=t.scalar), p: int
+    ):
+        return prm[PRM_K_WAVE], prm[PRM_G_WAVE]
+
+    return moduli
+
+
+def copy_state(t: WarpTypes) -> Any:
+    """``copy(s_in, s_out, p, start, count)``: carry ``count`` history slots unchanged."""
+    return _copy_state(t)
+
+
+@functools.cache
+def _copy_state(t: WarpTypes) -> Any:
+    @wp.func
+    def copy(s_in: wp.array2d(dtype=t.scalar), s_out: wp.array2d(dtype=t.scalar), p: int, start: int, count: int):
+        for k in range(count):
+            s_out[p, start + k] = s_in[p, start + k]
+
+    return copy
+
+
+def get_material_class(kind: str) -> type[Material]:
+    """Material class registered as ``kind``; raises ``KeyError`` listing the known kinds."""
+    try:
+        return MATERIALS[kind]
+    except KeyError:
+        known = ", ".join(sorted(MATERIALS))
+        raise KeyError(f"unknown material kind {kind!r}: known kinds are {known}") from None
+
+
+def from_dict(data: dict[str, Any]) -> Material:
+    """Build a material from ``{"kind": ..., **parameters}`` (inverse of :meth:`Material.to_dict`).
+
+    Unknown keys raise :class:`ParameterError` naming the key and the valid ones.
+    """
+    data = dict(data)
+    cls = get_material_class(data.pop("kind"))
+    names = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - names)
+    if unknown:
+        raise ParameterError(
+            f"unknown parameter(s) {', '.join(unknown)} for {cls.kind}: valid are {', '.join(sorted(names))}"
+        )
+    return cls(**data)

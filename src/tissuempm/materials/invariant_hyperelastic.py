@@ -1,0 +1,159 @@
+"""Uncoupled isotropic hyperelastic laws written in the isochoric invariants.
+
+    W(F) = W_iso(I1b, I2b) + U(J)
+
+with ``I1b, I2b`` the invariants of ``Bb = J^(-2/3) F F^T`` and the volumetric
+energy ``U`` selected by ``volumetric``:
+
+* ``"abaqus"``: U = (1/D1)(J - 1)^2 with D1 = 2/K  (Abaqus, Brewick et al. 2017 eq. 18)
+* ``"log"``:    U = (K/2)(ln J)^2, p = K ln J / J   (Ionescu et al. 2006 eq. 2)
+
+A law supplies only the derivatives ``W1 = dW/dI1b`` and ``W2 = dW/dI2b``, once as
+a ``@wp.func`` (for the solver) and once in NumPy (closed forms); the chain
+rule is shared::
+
+    sigma = (2/J) dev[(W1 + I1b W2) Bb - W2 Bb^2] + U'(J) I.
+
+Incompressible homogeneous closed forms (nominal stress P along the stretch
+``lam``; Treloar's relations) follow from the same derivatives:
+
+* uniaxial:    P = 2 (lam - lam^-2)(W1 + W2/lam),   I1 = lam^2 + 2/lam,  I2 = 2 lam + lam^-2
+* equibiaxial: P = 2 (lam - lam^-5)(W1 + lam^2 W2), I1 = 2 lam^2 + lam^-4, I2 = lam^4 + 2 lam^-2
+* pure shear:  P = 2 (lam - lam^-3)(W1 + W2),       I1 = I2 = lam^2 + 1 + lam^-2
+"""
+
+
+from dataclasses import dataclass
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+import warp as wp
+
+from tissuempm.materials.base import PRM_OFFSET, Material, ParameterError, copy_state, parameter
+from tissuempm.materials.kinematics import kinematics
+from tissuempm.precision import WarpTypes
+
+VolumetricForm = Literal["abaqus", "log"]
+VOLUMETRIC_FORMS: tuple[str, ...] = ("abaqus", "log")
+LAW_OFFSET = PRM_OFFSET + 2
+"""First packed index of a law's own parameters (after volumetric form code and K)."""
+
+
+def volumetric_energy(J: np.ndarray, form: str, K: float) -> np.ndarray:
+    """Volumetric strain energy U(J) [J/m^3] of ``form`` ("abaqus" or "log")."""
+    J = np.asarray(J, dtype=float)
+    if form == "abaqus":
+        return 0.5 * K * (J - 1.0) ** 2
+    return 0.5 * K * np.log(J) ** 2
+
+
+def isochoric_invariants(F: np.ndarray) -> tuple[float, float, float]:
+    """(I1b, I2b, J) of a deformation gradient (NumPy)."""
+    J = float(np.linalg.det(F))
+    Bb = J ** (-2.0 / 3.0) * F @ F.T
+    I1 = float(np.trace(Bb))
+    I2 = 0.5 * (I1 * I1 - float(np.sum(Bb * Bb)))
+    return I1, I2, J
+
+
+def incompressible_invariants(mode: str, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Invariants (I1, I2) of incompressible uniaxial / equibiaxial / pure-shear deformation."""
+    lam = np.asarray(lam, dtype=float)
+    if mode == "uniaxial":
+        return lam**2 + 2.0 / lam, 2.0 * lam + lam**-2
+    if mode == "equibiaxial":
+        return 2.0 * lam**2 + lam**-4, lam**4 + 2.0 * lam**-2
+    if mode == "pure_shear":
+        I = lam**2 + 1.0 + lam**-2
+        return I, I.copy()
+    raise ValueError(f"mode = {mode!r}: valid are uniaxial, equibiaxial, pure_shear")
+
+
+@dataclass(frozen=True, kw_only=True)
+class InvariantHyperelastic(Material):
+    """Base of uncoupled isotropic laws W_iso(I1b, I2b) + U(J) (see module docstring)."""
+
+    has_strain_energy: ClassVar[bool] = True
+
+    K: float = parameter("Pa", default=1.0e9, gt=0.0, doc="initial bulk modulus K0 (Abaqus D1 = 2/K)")
+    volumetric: VolumetricForm = "abaqus"
+
+    def check(self) -> None:
+        if self.volumetric not in VOLUMETRIC_FORMS:
+            raise ParameterError(
+                f"{type(self).__name__}.volumetric = {self.volumetric!r}: valid are {', '.join(VOLUMETRIC_FORMS)}"
+            )
+        if self.shear_modulus() <= 0.0:
+            raise ParameterError(
+                f"{type(self).__name__}: initial shear modulus G0 = {self.shear_modulus():g} Pa must be > 0"
+            )
+
+    # --- law-specific parts -------------------------------------------------------
+    def iso_energy(self, I1: np.ndarray, I2: np.ndarray) -> np.ndarray:
+        """Isochoric energy W_iso(I1b, I2b) [J/m^3] (NumPy)."""
+        raise NotImplementedError
+
+    def iso_derivatives(self, I1: np.ndarray, I2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(dW/dI1b, dW/dI2b) [Pa] (NumPy)."""
+        raise NotImplementedError
+
+    @classmethod
+    def _build_derivatives(cls, t: WarpTypes) -> Any:
+        """``@wp.func dW(I1b, I2b, prm, o) -> (W1, W2)``; the law's parameters start at ``prm[o]``."""
+        raise NotImplementedError
+
+    def shear_modulus(self) -> float:
+        """Initial shear modulus G0 = 2 (W1 + W2) at I1b = I2b = 3 [Pa]."""
+        W1, W2 = self.iso_derivatives(np.array(3.0), np.array(3.0))
+        return float(2.0 * (W1 + W2))
+
+    # --- shared ------------------------------------------------------------------
+    def small_strain_moduli(self) -> tuple[float, float]:
+        return self.K, self.shear_modulus()
+
+    def law_parameters(self) -> list[float]:
+        return [float(VOLUMETRIC_FORMS.index(self.volumetric)), *super().law_parameters()]
+
+    def strain_energy(self, F: np.ndarray, a0: np.ndarray | None = None) -> float:
+        I1, I2, J = isochoric_invariants(np.asarray(F, dtype=float))
+        return float(self.iso_energy(np.array(I1), np.array(I2)) + volumetric_energy(J, self.volumetric, self.K))
+
+    def nominal_stress_incompressible(self, mode: str, stretch: np.ndarray) -> np.ndarray:
+        """Incompressible nominal stress P [Pa] along the stretch for ``mode`` (module docstring)."""
+        lam = np.asarray(stretch, dtype=float)
+        W1, W2 = self.iso_derivatives(*incompressible_invariants(mode, lam))
+        if mode == "uniaxial":
+            return 2.0 * (lam - lam**-2) * (W1 + W2 / lam)
+        if mode == "equibiaxial":
+            return 2.0 * (lam - lam**-5) * (W1 + lam**2 * W2)
+        return 2.0 * (lam - lam**-3) * (W1 + W2)
+
+    @classmethod
+    def _build_stress(cls, t: WarpTypes) -> Any:
+        k = kinematics(t)
+        dW = cls._build_derivatives(t)
+        copy = copy_state(t)
+        s = t.scalar
+        o_form = PRM_OFFSET
+        o_law = LAW_OFFSET
+
+        @wp.func
+        def stress(
+            F: t.mat33,
+            L: t.mat33,
+            a0: t.vec3,
+            prm: wp.array(dtype=s),
+            s_in: wp.array2d(dtype=s),
+            s_out: wp.array2d(dtype=s),
+            p: int,
+            dt: s,
+        ):
+            J = wp.determinant(F)
+            Bb = k.isochoric_b(F)
+            I1, I2 = k.invariants12(Bb)
+            W1, W2 = dW(I1, I2, prm, o_law)
+            U1 = k.volumetric_dUdJ(J, prm[o_form], prm[o_form + 1])
+            copy(s_in, s_out, p, 0, s_in.shape[1])
+            return k.invariant_cauchy(F, W1, W2) + U1 * wp.identity(n=3, dtype=s)
+
+        return stress

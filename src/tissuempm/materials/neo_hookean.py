@@ -1,0 +1,51 @@
+"""Neo-Hookean law (Brewick et al. 2017 eqs 25-26; Abaqus convention).
+
+    W = C10 (I1b - 3) + U(J),        G0 = 2 C10
+
+Incompressible uniaxial nominal stress (seed 004 eq. 26)::
+
+    P = 2 C10 (lam - lam^-2)
+
+Example
+-------
+>>> from tissuempm.materials import NeoHookean
+>>> m = NeoHookean(C10=11.27e3, K=2.19e9, density=1000.0)
+>>> round(m.small_strain_moduli()[1])
+22540
+"""
+
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import warp as wp
+
+from tissuempm.materials.base import parameter
+from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
+from tissuempm.precision import WarpTypes
+
+
+@dataclass(frozen=True, kw_only=True)
+class NeoHookean(InvariantHyperelastic):
+    """Neo-Hookean law W = C10 (I1b - 3) + U(J)."""
+
+    kind = "neo_hookean"
+
+    C10: float = parameter("Pa", default=1.0e3, gt=0.0, doc="shear coefficient, G0 = 2 C10")
+
+    def iso_energy(self, I1: np.ndarray, I2: np.ndarray) -> np.ndarray:
+        return self.C10 * (I1 - 3.0)
+
+    def iso_derivatives(self, I1: np.ndarray, I2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self.C10 + 0.0 * I1, 0.0 * I2
+
+    @classmethod
+    def _build_derivatives(cls, t: WarpTypes) -> Any:
+        s = t.scalar
+
+        @wp.func
+        def dW(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
+            return prm[o], s(0.0)
+
+        return dW

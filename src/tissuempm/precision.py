@@ -1,0 +1,63 @@
+"""Floating-point precision of Warp code and the Warp types that go with it.
+
+Every Warp function in tissuempm is built by a factory that takes a
+:class:`WarpTypes` bundle, so the same source serves float64 (default) and
+float32 kernels::
+
+    types = warp_types("float64")
+    mat33 = types.mat33          # wp.mat33d
+    s = types.scalar             # wp.float64; write constants as s(0.5)
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+import warp as wp
+
+Precision = Literal["float64", "float32"]
+"""Floating-point precision of kernels and arrays: ``"float64"`` (default) or ``"float32"``."""
+
+PRECISIONS: tuple[str, ...] = ("float64", "float32")
+
+
+@dataclass(frozen=True)
+class WarpTypes:
+    """Warp scalar, vector and matrix types of one precision."""
+
+    precision: str
+    scalar: type
+    vec3: type
+    mat33: type
+    numpy: type
+
+
+def check_precision(precision: str) -> str:
+    """Return ``precision`` if valid, else raise ``ValueError`` naming the valid choices."""
+    if precision not in PRECISIONS:
+        raise ValueError(f"precision = {precision!r} is not valid: choose one of {', '.join(PRECISIONS)}")
+    return precision
+
+
+@functools.cache
+def warp_types(precision: str = "float64") -> WarpTypes:
+    """Warp types for ``precision`` (``"float64"`` or ``"float32"``)."""
+    check_precision(precision)
+    init_warp()
+    if precision == "float64":
+        return WarpTypes("float64", wp.float64, wp.vec3d, wp.mat33d, np.float64)
+    return WarpTypes("float32", wp.float32, wp.vec3f, wp.mat33f, np.float32)
+
+
+@functools.cache
+def init_warp() -> None:
+    """Initialise Warp once. Log messages below WARNING are silenced and reverse-mode
+    code generation is off (tissuempm differentiates nothing through Warp), which
+    halves kernel compile time."""
+    wp.config.log_level = logging.WARNING
+    wp.config.enable_backward = False
+    wp.init()
