@@ -206,6 +206,8 @@ class Material:
         out: dict[str, Any] = {"kind": self.kind}
         for f in dataclasses.fields(self):
             v = getattr(self, f.name)
+            if isinstance(v, Material):
+                v = v.to_dict()
             out[f.name] = list(v) if isinstance(v, tuple) else v
         return out
 
@@ -356,4 +358,7 @@ def from_dict(data: dict[str, Any]) -> Material:
         raise ParameterError(
             f"unknown parameter(s) {', '.join(unknown)} for {cls.kind}: valid are {', '.join(sorted(names))}"
         )
+    for key, value in data.items():
+        if isinstance(value, dict) and "kind" in value:
+            data[key] = from_dict(value)  # composed laws (failure, viscoelastic wrappers)
     return cls(**data)
