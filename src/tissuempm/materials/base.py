@@ -163,6 +163,8 @@ class Material:
     """History variables, in storage order."""
     anisotropic: ClassVar[bool] = False
     """True when the law uses the fiber direction ``a0``."""
+    rate_dependent: ClassVar[bool] = False
+    """True when the stress depends on the loading rate (viscous laws)."""
 
     density: float = parameter("kg/m^3", default=1000.0, gt=0.0, doc="reference mass density rho0")
 

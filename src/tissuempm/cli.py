@@ -1,0 +1,271 @@
+"""The ``tissuempm`` command line.
+
+    tissuempm --version
+    tissuempm materials list [--json]
+    tissuempm materials show NAME [--json]
+    tissuempm materials stress NAME --mode uniaxial --stretch 0.7:1.5:17 [--rate R] [--fiber X,Y,Z] [--json]
+    tissuempm materials plot NAME -o FILE.png
+    tissuempm calibrate CONFIG.toml [--out DIR] [--json]
+    tissuempm run SCENARIO.toml [--out DIR] [--device cpu|cuda] [--restart]
+"""
+
+import json
+from pathlib import Path
+from typing import Annotated, Optional
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from tissuempm import __version__
+
+app = typer.Typer(help="Soft-tissue injury simulation (MPM) and tissue material calibration.", no_args_is_help=True)
+materials_app = typer.Typer(help="Browse the tissue material library and check stress-strain responses.",
+                            no_args_is_help=True)
+app.add_typer(materials_app, name="materials")
+console = Console()
+err_console = Console(stderr=True)
+
+
+def _fail(message: str) -> None:
+    err_console.print(f"[bold red]error:[/] {message}")
+    raise typer.Exit(code=2)
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"tissuempm {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def main(
+    version: Annotated[
+        Optional[bool], typer.Option("--version", callback=_version, is_eager=True, help="Print the version.")
+    ] = None,
+) -> None:
+    """tissuempm: data -> calibrated model -> material library -> MPM injury simulation."""
+
+
+def _entry(name: str):
+    from tissuempm import library
+
+    try:
+        return library.get(name)
+    except KeyError as exc:
+        _fail(str(exc.args[0]) if exc.args else f"unknown material {name!r}")
+
+
+def _jsonable(value):
+    if isinstance(value, dict):
+        return {k: _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return value
+
+
+@materials_app.command("list")
+def materials_list(json_output: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False) -> None:
+    """List every material of the library (Brewick et al. 2017 tables A1-A4, Ionescu et al. 2006 sets, user files)."""
+    from tissuempm import library
+
+    entries = [library.get(n) for n in library.names()]
+    if json_output:
+        rows = [
+            {"name": e.name, "title": e.title, "table": e.table, "group": e.group, "kind": e.model["kind"],
+             "source": e.source}
+            for e in entries
+        ]
+        typer.echo(json.dumps(_jsonable(rows), indent=2))
+        return
+    table = Table(title=f"tissuempm material library ({len(entries)} materials)")
+    for col in ("name", "title", "table", "model", "source"):
+        table.add_column(col, overflow="fold")
+    for e in entries:
+        table.add_row(e.name, e.title, str(e.table), e.model["kind"], e.source)
+    console.print(table)
+
+
+@materials_app.command("show")
+def materials_show(
+    name: Annotated[str, typer.Argument(help="Library name (see `tissuempm materials list`).")],
+    json_output: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+) -> None:
+    """Parameters with units, derived values and the Drucker-stable strain range of a material."""
+    from tissuempm import library
+
+    entry = _entry(name)
+    material = entry.material
+    info = {
+        "name": entry.name,
+        "title": entry.title,
+        "table": entry.table,
+        "group": entry.group,
+        "source": entry.source,
+        "notes": entry.notes,
+        "parameters": _parameter_rows(material),
+        "derived": library.derived(entry),
+        "stability": library.stability(material),
+    }
+    if json_output:
+        typer.echo(json.dumps(_jsonable(info), indent=2))
+        return
+    console.print(f"[bold]{entry.title}[/] ({entry.name}), table {entry.table}, group {entry.group}")
+    console.print(f"source: {entry.source}")
+    if entry.notes:
+        console.print(f"notes: {entry.notes}")
+    table = Table(title="parameters (SI)")
+    for col in ("parameter", "value", "unit", "meaning"):
+        table.add_column(col)
+    for row in info["parameters"]:
+        table.add_row(row["name"], str(row["value"]), row["unit"], row["doc"])
+    console.print(table)
+    derived = Table(title="derived values")
+    derived.add_column("quantity")
+    derived.add_column("value")
+    for key, value in info["derived"].items():
+        derived.add_row(key, str(value))
+    console.print(derived)
+    stab = Table(title="Drucker-stable range (engineering strain, within -30%..+30%)")
+    stab.add_column("mode")
+    stab.add_column("stable")
+    for key, value in info["stability"].items():
+        stab.add_row(key, str(value))
+    console.print(stab)
+
+
+def _parameter_rows(material, prefix: str = "") -> list[dict]:
+    import dataclasses
+
+    from tissuempm.materials import Material
+
+    rows = []
+    for f in dataclasses.fields(material):
+        value = getattr(material, f.name)
+        if isinstance(value, Material):
+            rows.append({"name": prefix + f.name, "value": value.kind, "unit": "", "doc": "composed law"})
+            rows.extend(_parameter_rows(value, prefix + f.name + "."))
+            continue
+        meta = f.metadata
+        rows.append({
+            "name": prefix + f.name,
+            "value": list(value) if isinstance(value, tuple) else value,
+            "unit": meta.get("unit", ""),
+            "doc": meta.get("doc", ""),
+        })
+    return rows
+
+
+def _parse_range(text: str) -> np.ndarray:
+    try:
+        start, stop, n = text.split(":")
+        values = np.linspace(float(start), float(stop), int(n))
+    except ValueError:
+        _fail(f"--stretch {text!r}: expected START:STOP:N, e.g. 0.7:1.5:17")
+    if int(n) < 1 or not np.all(np.isfinite(values)):
+        _fail(f"--stretch {text!r}: N must be >= 1 and START, STOP finite")
+    return values
+
+
+def _parse_fiber(text: str | None) -> tuple[float, float, float]:
+    if text is None:
+        return (1.0, 0.0, 0.0)
+    try:
+        a = tuple(float(x) for x in text.split(","))
+    except ValueError:
+        a = ()
+    if len(a) != 3 or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0.0:
+        _fail(f"--fiber {text!r}: expected three numbers X,Y,Z, not all zero")
+    return a
+
+
+@materials_app.command("stress")
+def materials_stress(
+    name: Annotated[str, typer.Argument(help="Library name.")],
+    mode: Annotated[str, typer.Option(help="uniaxial | equibiaxial | pure_shear | simple_shear")] = "uniaxial",
+    stretch: Annotated[str, typer.Option(help="START:STOP:N stretches (shear amount gamma for simple_shear).")] = (
+        "0.7:1.5:17"
+    ),
+    rate: Annotated[Optional[float], typer.Option(help="Engineering strain rate [1/s]; omit for quasi-static.")] = None,
+    fiber: Annotated[Optional[str], typer.Option(help="Fiber direction X,Y,Z of anisotropic laws.")] = None,
+    json_output: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+) -> None:
+    """Homogeneous stress-strain response computed with the solver's own stress code."""
+    from tissuempm.materials.drivers import MODES, DriverError, stress_strain
+
+    if mode not in MODES:
+        _fail(f"--mode {mode!r} is not valid: choose one of {', '.join(MODES)}")
+    lam = _parse_range(stretch)
+    if mode != "simple_shear" and np.any(lam <= 0):
+        _fail("--stretch: stretches must be > 0")
+    material = _entry(name).material
+    try:
+        res = stress_strain(material, mode, lam, rate=rate, fiber=_parse_fiber(fiber))
+    except (DriverError, ValueError) as exc:
+        _fail(str(exc))
+    failure = res.failure
+    comp = "12" if mode == "simple_shear" else "11"
+    rows = []
+    for i, v in enumerate(lam):
+        row = {"stretch": float(v), f"nominal_{comp}": float(res.nominal_axial[i]),
+               f"cauchy_{comp}": float(res.cauchy_axial[i])}
+        if failure is not None:
+            row["failure"] = int(failure[i])
+        rows.append(row)
+    if json_output:
+        typer.echo(json.dumps({"material": name, "mode": mode, "rate": rate, "unit": "Pa", "rows": rows}, indent=2))
+        return
+    label = "gamma" if mode == "simple_shear" else "stretch"
+    table = Table(title=f"{name}: {mode}, {'quasi-static' if rate is None else f'rate {rate:g} 1/s'}")
+    table.add_column(label, justify="right")
+    table.add_column(f"nominal P{comp} [Pa]", justify="right")
+    table.add_column(f"Cauchy s{comp} [Pa]", justify="right")
+    if failure is not None:
+        table.add_column("failure", justify="right")
+    for row in rows:
+        cells = [f"{row['stretch']:.4f}", f"{row[f'nominal_{comp}']:.6g}", f"{row[f'cauchy_{comp}']:.6g}"]
+        if failure is not None:
+            cells.append(str(row["failure"]))
+        table.add_row(*cells)
+    console.print(table)
+
+
+@materials_app.command("plot")
+def materials_plot(
+    name: Annotated[str, typer.Argument(help="Library name.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="PNG file to write.")],
+    fiber: Annotated[Optional[str], typer.Option(help="Fiber direction X,Y,Z of anisotropic laws.")] = None,
+) -> None:
+    """Plot uniaxial nominal stress over -30%..+30% strain at several strain rates (seed 004 figs 13-32)."""
+    from tissuempm.materials.plots import plot_material
+
+    entry = _entry(name)
+    try:
+        plot_material(entry.material, output, title=f"{entry.title} ({entry.name})", fiber=_parse_fiber(fiber))
+    except (ValueError, RuntimeError) as exc:
+        _fail(str(exc))
+    console.print(f"wrote {output}")
+
+
+def _register_optional_commands() -> None:
+    """Commands of subpackages (calibration, MPM scenarios)."""
+    try:
+        from tissuempm.calibration.command import calibrate
+    except ImportError:
+        pass
+    else:
+        app.command("calibrate")(calibrate)
+    try:
+        from tissuempm.scenarios.command import run
+    except ImportError:
+        pass
+    else:
+        app.command("run")(run)
+
+
+_register_optional_commands()

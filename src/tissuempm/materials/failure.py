@@ -1,0 +1,235 @@
+"""Two-surface strain-based failure of a fiber-reinforced law (Ionescu et al. 2006, seed 000 eqs 6-8).
+
+The Cauchy stress of the base law is a sum of parts (seed eq. 3)::
+
+    sigma = sigma_matrix + sigma_fiber + sigma_vol
+
+and each constituent fails on its own strain surface:
+
+* Matrix failure (eqs 6-7) on the maximum Green-Lagrange shear strain, from the
+  principal values E1 >= E2 >= E3 of E = (C - I)/2 (float64 eigen-solve)::
+
+      gamma = (E1 - E3) / 2 > gamma_max   =>   sigma_matrix = 0 and sigma_vol = 0
+
+* Fiber failure (eq. 8) on the fiber strain, with lam = |F a0| the fiber stretch
+  of eq. 1 (the full stretch, whatever the base's ``fiber_kinematics``)::
+
+      eps_fiber = lam - 1 > eps_max        =>   sigma_fiber = 0
+
+Conventions (``convention``):
+
+``"seed"``
+    As written in the paper: gamma = (E1 - E3)/2, the tensorial maximum shear
+    strain.
+``"uintah"``
+    As coded in Uintah's ``TransIsoHyper`` (the code the paper ran): its
+    "max_shear_strain" is (e1 - e3)/2 with e1, e3 the extreme eigenvalues of C,
+    i.e. E1 - E3 (the engineering shear strain, twice the seed's measure), so
+    matrix failure happens at half the seed's shear strain for the same
+    ``gamma_max``. Uintah compares the full stretch sqrt(I4) with an input
+    ``crit_stretch`` (a stretch); here that is ``1 + eps_max``, so the fiber
+    criterion is the same in both conventions.
+
+Failure is permanent: the state variable ``failure`` (:class:`FailureMode`) only
+gains bits (matrix = 1, fiber = 2, both = 3); a failed constituent carries no
+stress on later unloading. A failed matrix also loses its pressure (eq. 7),
+including in compression, as in the paper and Uintah.
+
+History (per particle): ``failure`` code, ``max_shear_strain`` (largest matrix
+measure reached, in the convention's units) and ``max_fiber_strain``
+(largest lam - 1 reached).
+
+Example
+-------
+>>> from tissuempm.materials import TwoSurfaceFailure, Weiss
+>>> m = TwoSurfaceFailure(base=Weiss.example(), gamma_max=0.25, eps_max=0.4)
+>>> m.n_state
+3
+"""
+
+
+import enum
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+import warp as wp
+
+from tissuempm.materials.base import PRM_OFFSET, Material, ParameterError, StateVar, parameter
+from tissuempm.materials.weiss import N_LAW, Weiss
+from tissuempm.precision import WarpTypes
+
+Convention = Literal["seed", "uintah"]
+CONVENTIONS: tuple[str, ...] = ("seed", "uintah")
+
+
+class FailureMode(enum.IntEnum):
+    """Failure code stored in the ``failure`` state variable (bit 0 matrix, bit 1 fiber)."""
+
+    INTACT = 0
+    MATRIX = 1
+    FIBER = 2
+    BOTH = 3
+
+
+INTACT = wp.constant(int(FailureMode.INTACT))
+MATRIX = wp.constant(int(FailureMode.MATRIX))
+FIBER = wp.constant(int(FailureMode.FIBER))
+BOTH = wp.constant(int(FailureMode.BOTH))
+
+O_GAMMA = PRM_OFFSET + N_LAW
+"""Packed index of gamma_max (after the base Weiss layout)."""
+O_EPS = O_GAMMA + 1
+O_CONV = O_GAMMA + 2
+"""Convention code (0 seed, 1 uintah)."""
+
+
+def shear_strain_measure(F: np.ndarray, convention: str = "seed") -> float:
+    """Matrix failure measure of ``F`` (NumPy): (E1 - E3)/2 ("seed") or E1 - E3 ("uintah")."""
+    F = np.asarray(F, dtype=float)
+    e = np.linalg.eigvalsh(0.5 * (F.T @ F - np.eye(3)))
+    return float(e[-1] - e[0]) * (0.5 if convention == "seed" else 1.0)
+
+
+@dataclass(frozen=True, kw_only=True)
+class TwoSurfaceFailure(Material):
+    """Matrix/fiber strain-based failure layer over a :class:`Weiss` base (module docstring).
+
+    ``density`` is the base's; giving a different value raises :class:`ParameterError`.
+    """
+
+    kind = "two_surface_failure"
+    anisotropic: ClassVar[bool] = True
+    state_vars: ClassVar[tuple[StateVar, ...]] = (
+        StateVar("failure", 1, 0.0, "failure code: 0 intact, 1 matrix, 2 fiber, 3 both (FailureMode)"),
+        StateVar("max_shear_strain", 1, 0.0, "largest matrix failure measure reached [1] (convention's units)"),
+        StateVar("max_fiber_strain", 1, 0.0, "largest fiber strain lam - 1 reached [1]"),
+    )
+
+    density: float = parameter("kg/m^3", default=None, gt=0.0, doc="reference mass density (the base's)")
+    base: Weiss = field(default_factory=Weiss.example)
+    gamma_max: float = parameter("1", default=0.25, gt=0.0, doc="matrix failure shear strain (eq. 7)")
+    eps_max: float = parameter("1", default=0.4, gt=0.0, doc="fiber failure strain lam - 1 (eq. 8)")
+    convention: Convention = "seed"
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.base, Weiss):
+            raise ParameterError(
+                f"TwoSurfaceFailure.base = {type(self.base).__name__}: must be a Weiss law (it splits the stress)"
+            )
+        if self.density is None:
+            object.__setattr__(self, "density", self.base.density)
+        super().__post_init__()
+
+    @classmethod
+    def example(cls) -> "TwoSurfaceFailure":
+        """Seed 000 shear test: myocardium base, gamma_max 0.25, eps_max 0.40."""
+        return cls(base=Weiss.example(), gamma_max=0.25, eps_max=0.4)
+
+    def check(self) -> None:
+        if self.convention not in CONVENTIONS:
+            raise ParameterError(
+                f"TwoSurfaceFailure.convention = {self.convention!r}: valid are {', '.join(CONVENTIONS)}"
+            )
+        if self.density != self.base.density:
+            raise ParameterError(
+                f"TwoSurfaceFailure.density = {self.density!r} differs from base.density = {self.base.density!r}: "
+                "leave it unset (it is taken from the base)"
+            )
+
+    def to_dict(self) -> dict[str, Any]:
+        out = super().to_dict()
+        out.pop("density")  # carried by the base
+        return out
+
+    # ------------------------------------------------------------------ failure (NumPy)
+    def matrix_fails(self, F: np.ndarray) -> bool:
+        """True when the matrix criterion (eq. 7, in this convention) is met at ``F``."""
+        return shear_strain_measure(F, self.convention) > self.gamma_max
+
+    def fiber_fails(self, F: np.ndarray, a0: np.ndarray | None = None) -> bool:
+        """True when the fiber criterion lam - 1 > eps_max (eq. 8) is met at ``F``."""
+        a = np.array([1.0, 0.0, 0.0]) if a0 is None else np.asarray(a0, dtype=float)
+        return float(np.linalg.norm(np.asarray(F, dtype=float) @ (a / np.linalg.norm(a)))) - 1.0 > self.eps_max
+
+    # ------------------------------------------------------------------ solver interface
+    def small_strain_moduli(self) -> tuple[float, float]:
+        return self.base.small_strain_moduli()
+
+    def wave_moduli(self) -> tuple[float, float]:
+        return self.base.wave_moduli()
+
+    def law_parameters(self) -> list[float]:
+        return [
+            *self.base.law_parameters(),
+            self.gamma_max,
+            self.eps_max,
+            float(CONVENTIONS.index(self.convention)),
+        ]
+
+    @classmethod
+    def _build_moduli(cls, t: WarpTypes) -> Any:
+        # Failure only removes stiffness: the intact base's moduli are a safe bound.
+        return Weiss.moduli_function(t.precision)
+
+    @classmethod
+    def _build_criteria(cls, t: WarpTypes) -> Any:
+        """``criteria(F, lam, prm) -> (gamma, eps_fiber)``: the two failure measures (float64 eigen-solve)."""
+        s = t.scalar
+
+        @wp.func
+        def criteria(F: t.mat33, lam: s, prm: wp.array(dtype=s)):
+            F64 = wp.mat33d(F)
+            C = wp.transpose(F64) * F64
+            Q = wp.mat33d()
+            d = wp.vec3d()
+            wp.eig3(C, Q, d)
+            cmax = wp.max(wp.max(d[0], d[1]), d[2])
+            cmin = wp.min(wp.min(d[0], d[1]), d[2])
+            E13 = wp.float64(0.5) * (cmax - cmin)  # E1 - E3
+            if prm[O_CONV] < s(0.5):
+                E13 = wp.float64(0.5) * E13
+            return s(E13), lam - s(1.0)
+
+        return criteria
+
+    @classmethod
+    def _build_stress(cls, t: WarpTypes) -> Any:
+        parts = Weiss._build_parts(t)
+        criteria = cls._build_criteria(t)
+        s = t.scalar
+        mat33 = t.mat33
+
+        @wp.func
+        def stress(
+            F: t.mat33,
+            L: t.mat33,
+            a0: t.vec3,
+            prm: wp.array(dtype=s),
+            s_in: wp.array2d(dtype=s),
+            s_out: wp.array2d(dtype=s),
+            p: int,
+            dt: s,
+        ):
+            sig_m, sig_f, sig_v, lam = parts(F, a0, prm)
+            gam, efib = criteria(F, lam, prm)
+            old = int(s_in[p, 0] + s(0.5))
+            matrix = 0
+            if old == MATRIX or old == BOTH or gam > prm[O_GAMMA]:
+                matrix = 1
+            fiber = 0
+            if old == FIBER or old == BOTH or efib > prm[O_EPS]:
+                fiber = 1
+            code = matrix * MATRIX + fiber * FIBER
+            s_out[p, 0] = s(code)
+            s_out[p, 1] = wp.max(s_in[p, 1], gam)
+            s_out[p, 2] = wp.max(s_in[p, 2], efib)
+            sig = mat33()
+            if matrix == 0:
+                sig = sig + sig_m + sig_v
+            if fiber == 0:
+                sig = sig + sig_f
+            return sig
+
+        return stress
+

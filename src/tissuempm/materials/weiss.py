@@ -1,0 +1,382 @@
+"""Transversely isotropic hyperelastic law of Weiss et al. (1996), as used by Ionescu et al. (2006).
+
+Strain energy (Ionescu et al. 2006, seed 000, eq. 2), uncoupled into matrix,
+fiber and volumetric terms::
+
+    W = F1(I1b, I2b) + F2(lam_f) + U(J)
+    F1 = C1 (I1b - 3) + C2 (I2b - 3)               (eq. 4 with C2 = 0: neo-Hookean matrix)
+
+with ``I1b, I2b`` the invariants of ``Cb = J^(-2/3) C`` and ``lam_f`` the fiber
+stretch. The fiber term is given through its stress ``T = lam dF2/dlam`` [Pa]
+(eq. 5)::
+
+    T(lam) = 0                                 lam < 1          (fibers carry no compression)
+           = C3 (exp(C4 (lam - 1)) - 1)        1 <= lam < lam*  (toe region, fiber uncrimping)
+           = C5 lam + C6                       lam >= lam*      (straightened collagen)
+    C6 = C3 (exp(C4 (lam* - 1)) - 1) - C5 lam*                  (C0 continuity of T at lam*)
+
+Integrating ``dF2/dlam = T / lam`` from ``F2(1) = 0`` gives the energy
+(``Ei`` the exponential integral)::
+
+    F2 = C3 [exp(-C4) (Ei(C4 lam) - Ei(C4)) - ln lam]          1 <= lam < lam*
+       = F2(lam*) + C5 (lam - lam*) + C6 ln(lam / lam*)        lam >= lam*
+
+Fiber kinematics (``fiber_kinematics``):
+
+* ``"isochoric"`` (seed and Uintah ``TransIsoHyper``): ``lam_f = lamb = J^(-1/3) |F a0|``,
+  the stretch of the isochoric part of ``C``. Then (eq. 3 fiber part)::
+
+      sigma_fiber = (1/J) T(lamb) dev(a (x) a),      a = F a0 / |F a0|
+
+* ``"full"`` (Sansour 2008; Helfenstein et al. 2010; Nolan et al. 2014):
+  ``lam_f = lam = |F a0| = sqrt(I4)``. With ``d lam / dF = (F a0) (x) a0 / lam``,
+  ``sigma = (1/J) dW/dF F^T`` gives a stress that is *not* deviatoric::
+
+      sigma_fiber = (1/J) T(lam) a (x) a
+
+  The isochoric split makes a compressible fiber-reinforced solid respond to a
+  pure dilatation J with no fiber stress (and to a volume-preserving fiber
+  stretch with a spurious pressure); the full-I4 form does not.
+
+Matrix and volumetric Cauchy stresses::
+
+    sigma_matrix = (2/J) dev[(C1 + I1b C2) Bb - C2 Bb^2]
+    sigma_vol    = U'(J) I,   U = K/2 (ln J)^2 ("log", seed eq. 2)  or  K/2 (J - 1)^2 ("abaqus")
+
+Wave speed (seed eq. 9, c = sqrt((K + 4G/3) / rho)): :meth:`Weiss._build_moduli`
+returns instantaneous moduli that bound the acoustic tensor including fiber
+stiffening (see its docstring); :meth:`Weiss.wave_moduli` gives the value at
+the largest stretch of the toe/linear kink (header, for initial time steps).
+
+References
+----------
+Weiss J.A., Maker B.N., Govindjee S. (1996) Comput. Methods Appl. Mech. Eng. 135, 107-128.
+Ionescu I., Guilkey J.E., Berzins M., Kirby R.M., Weiss J.A. (2006) J. Biomech. Eng. 128, 917-924.
+Nolan D.R., Gower A.L., Destrade M., Ogden R.W., McGarry J.P. (2014) J. Mech. Behav. Biomed. Mater. 39, 48-60.
+
+Example
+-------
+>>> from tissuempm.materials import Weiss
+>>> m = Weiss.example()
+>>> round(float(m.uniaxial_incompressible(1.2)))  # Cauchy stress [Pa] along the fiber at lam = 1.2
+13811
+"""
+
+
+from dataclasses import dataclass
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+import scipy.special
+import warp as wp
+from scipy.optimize import brentq
+
+from tissuempm.materials.base import PRM_OFFSET, Material, ParameterError, copy_state, parameter
+from tissuempm.materials.invariant_hyperelastic import (
+    VOLUMETRIC_FORMS,
+    VolumetricForm,
+    isochoric_invariants,
+    volumetric_energy,
+)
+from tissuempm.materials.kinematics import kinematics
+from tissuempm.precision import WarpTypes
+
+FiberKinematics = Literal["isochoric", "full"]
+FIBER_KINEMATICS: tuple[str, ...] = ("isochoric", "full")
+
+# Packed layout of the law's parameters (absolute indices into ``pack()``).
+O_FORM = PRM_OFFSET
+"""Volumetric form code (index into VOLUMETRIC_FORMS: 0 abaqus, 1 log)."""
+O_K = PRM_OFFSET + 1
+O_C1 = PRM_OFFSET + 2
+O_C2 = PRM_OFFSET + 3
+O_C3 = PRM_OFFSET + 4
+O_C4 = PRM_OFFSET + 5
+O_C5 = PRM_OFFSET + 6
+O_LSTAR = PRM_OFFSET + 7
+O_C6 = PRM_OFFSET + 8
+O_KIN = PRM_OFFSET + 9
+"""Fiber kinematics code (0 isochoric, 1 full)."""
+N_LAW = 10
+"""Number of packed law parameters of :class:`Weiss` (wrappers append theirs after)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class Weiss(Material):
+    """Weiss et al. (1996) transversely isotropic law (module docstring; seed 000 eqs 1-5)."""
+
+    kind = "weiss"
+    anisotropic: ClassVar[bool] = True
+    has_strain_energy: ClassVar[bool] = True
+
+    C1: float = parameter("Pa", default=2.1e3, gt=0.0, doc="matrix coefficient of (I1b - 3); G0 = 2 (C1 + C2)")
+    C2: float = parameter("Pa", default=0.0, ge=0.0, doc="matrix coefficient of (I2b - 3) (0: neo-Hookean)")
+    C3: float = parameter("Pa", default=0.14e3, ge=0.0, doc="scale of the exponential toe-region fiber stress")
+    C4: float = parameter("1", default=22.0, gt=0.0, doc="rate of fiber uncrimping")
+    C5: float = parameter("Pa", default=100.0e3, ge=0.0, doc="modulus of the straightened fibers")
+    lam_star: float = parameter("1", default=1.3, gt=1.0, doc="stretch at which the fibers are straight")
+    K: float = parameter("Pa", default=100.0e3, gt=0.0, doc="bulk modulus")
+    volumetric: VolumetricForm = "log"
+    fiber_kinematics: FiberKinematics = "isochoric"
+
+    @classmethod
+    def example(cls) -> "Weiss":
+        """Myocardium, single-particle test of seed 000: C1 2.1 kPa, C3 0.14 kPa, C4 22, C5 100 kPa,
+        lam* 1.3, K 100 kPa (K/G = 47.6, nearly incompressible); density 1000 kg/m^3 (not given)."""
+        return cls(C1=2.1e3, C2=0.0, C3=0.14e3, C4=22.0, C5=100.0e3, lam_star=1.3, K=100.0e3, density=1000.0)
+
+    def check(self) -> None:
+        name = type(self).__name__
+        if self.volumetric not in VOLUMETRIC_FORMS:
+            raise ParameterError(f"{name}.volumetric = {self.volumetric!r}: valid are {', '.join(VOLUMETRIC_FORMS)}")
+        if self.fiber_kinematics not in FIBER_KINEMATICS:
+            raise ParameterError(
+                f"{name}.fiber_kinematics = {self.fiber_kinematics!r}: valid are {', '.join(FIBER_KINEMATICS)}"
+            )
+        if self.C4 * (self.lam_star - 1.0) > 600.0:
+            raise ParameterError(
+                f"{name}: C4 (lam_star - 1) = {self.C4 * (self.lam_star - 1.0):g} overflows exp(); valid range is <= 600"
+            )
+
+    # ------------------------------------------------------------------ fiber law (NumPy)
+    @property
+    def C6(self) -> float:
+        """Intercept of the linear fiber branch, C6 = C3 (exp(C4 (lam* - 1)) - 1) - C5 lam* [Pa]."""
+        return self.C3 * np.expm1(self.C4 * (self.lam_star - 1.0)) - self.C5 * self.lam_star
+
+    def fiber_stress(self, lam: np.ndarray) -> np.ndarray:
+        """Fiber stress T = lam dF2/dlam [Pa] of eq. 5 (zero for lam < 1)."""
+        lam = np.asarray(lam, dtype=float)
+        toe = self.C3 * np.expm1(self.C4 * (np.minimum(lam, self.lam_star) - 1.0))
+        out = np.where(lam < self.lam_star, toe, self.C5 * lam + self.C6)
+        return np.where(lam < 1.0, 0.0, out)
+
+    def fiber_tangent(self, lam: np.ndarray) -> np.ndarray:
+        """dT/dlam [Pa] (right derivative at the kinks lam = 1 and lam = lam*)."""
+        lam = np.asarray(lam, dtype=float)
+        toe = self.C3 * self.C4 * np.exp(self.C4 * (np.minimum(lam, self.lam_star) - 1.0))
+        out = np.where(lam < self.lam_star, toe, self.C5)
+        return np.where(lam < 1.0, 0.0, out)
+
+    def fiber_energy(self, lam: np.ndarray) -> np.ndarray:
+        """F2(lam) = int_1^lam T(s)/s ds [J/m^3] (module docstring; zero for lam <= 1)."""
+        lam = np.asarray(lam, dtype=float)
+
+        def toe(x: np.ndarray) -> np.ndarray:
+            x = np.clip(x, 1.0, self.lam_star)
+            ei = scipy.special.expi(self.C4 * x) - scipy.special.expi(self.C4)
+            return self.C3 * (np.exp(-self.C4) * ei - np.log(x))
+
+        lin = toe(np.array(self.lam_star)) + self.C5 * (lam - self.lam_star) + self.C6 * np.log(
+            np.maximum(lam, 1e-300) / self.lam_star
+        )
+        return np.where(lam < self.lam_star, toe(lam), lin)
+
+    def fiber_stretch(self, F: np.ndarray, a0: np.ndarray | None = None) -> float:
+        """Stretch entering F2: J^(-1/3) |F a0| ("isochoric") or |F a0| ("full")."""
+        F = np.asarray(F, dtype=float)
+        a = np.array([1.0, 0.0, 0.0]) if a0 is None else np.asarray(a0, dtype=float)
+        lam = float(np.linalg.norm(F @ (a / np.linalg.norm(a))))
+        if self.fiber_kinematics == "isochoric":
+            lam *= float(np.linalg.det(F)) ** (-1.0 / 3.0)
+        return lam
+
+    # ------------------------------------------------------------------ verification (NumPy)
+    def strain_energy(self, F: np.ndarray, a0: np.ndarray | None = None) -> float:
+        """W(F) [J/m^3]; ``a0`` defaults to e1."""
+        F = np.asarray(F, dtype=float)
+        I1, I2, J = isochoric_invariants(F)
+        W = self.C1 * (I1 - 3.0) + self.C2 * (I2 - 3.0) + self.fiber_energy(self.fiber_stretch(F, a0))
+        return float(W + volumetric_energy(J, self.volumetric, self.K))
+
+    def transverse_stretches(self, stretch: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Lateral stretches (l2 along the fiber, l3) of incompressible uniaxial stress across the fiber.
+
+        Load along e1, fiber along e2, F = diag(lam, l2, l3), l2 l3 = 1/lam. With
+        sigma = 2 C1 B - 2 C2 B^-1 + T(l2) e2 (x) e2 - p I, the condition
+        sigma22 = sigma33 = 0 is::
+
+            g(l2) = 2 C1 (l2^2 - l3^2) - 2 C2 (l2^-2 - l3^-2) + T(l2) = 0.
+
+        For lam >= 1 the fiber shortens (l2 = l3 = lam^-1/2 < 1, T = 0); g > 0 for
+        every l2 > 1, so this root is unique. For lam < 1 the symmetric root would
+        stretch the fiber; the fiber stiffens so 1 <= l2 <= lam^-1/2 and l2 is
+        found by bracketing g on that interval (g(1) < 0, g(lam^-1/2) = T >= 0).
+        """
+        lam = np.atleast_1d(np.asarray(stretch, dtype=float))
+        l2 = lam**-0.5
+        for i, x in enumerate(lam):
+            if x >= 1.0:
+                continue
+
+            def g(y: float, x: float = x) -> float:
+                z = 1.0 / (x * y)
+                return float(
+                    2.0 * self.C1 * (y * y - z * z) - 2.0 * self.C2 * (y**-2 - z**-2) + self.fiber_stress(y)
+                )
+
+            hi = x**-0.5
+            l2[i] = hi if g(hi) <= 0.0 else brentq(g, 1.0, hi, xtol=1e-15, rtol=1e-15)
+        return l2, 1.0 / (lam * l2)
+
+    def uniaxial_incompressible(self, stretch: np.ndarray, along_fiber: bool = True) -> np.ndarray:
+        """Cauchy stress sigma11 [Pa] of incompressible uniaxial stress (nominal P = sigma / lam).
+
+        Along the fiber (a0 = e1; lateral stretches lam^-1/2 by symmetry)::
+
+            sigma = 2 C1 (lam^2 - 1/lam) + 2 C2 (lam - 1/lam^2) + T(lam)
+
+        Across the fiber (a0 = e2; lateral stretches from :meth:`transverse_stretches`)::
+
+            sigma = 2 C1 (lam^2 - l3^2) - 2 C2 (lam^-2 - l3^-2)
+        """
+        lam = np.asarray(stretch, dtype=float)
+        if along_fiber:
+            return 2.0 * self.C1 * (lam**2 - 1.0 / lam) + 2.0 * self.C2 * (lam - lam**-2) + self.fiber_stress(lam)
+        _, l3 = self.transverse_stretches(lam)
+        out = 2.0 * self.C1 * (lam**2 - l3**2) - 2.0 * self.C2 * (lam**-2 - l3**-2)
+        return out.reshape(lam.shape)
+
+    # ------------------------------------------------------------------ solver interface
+    def small_strain_moduli(self) -> tuple[float, float]:
+        return self.K, 2.0 * (self.C1 + self.C2)
+
+    def wave_moduli(self) -> tuple[float, float]:
+        """(K, G) at the fiber kink lam*: G = 2 (C1 + C2) + 3/4 (lam* T'(lam*-) + 2 T(lam*)).
+
+        Only the header value (initial time step); the solver's time step uses
+        :meth:`moduli_function`, which follows the current fiber stretch."""
+        ls = self.lam_star
+        tan = self.C3 * self.C4 * np.exp(self.C4 * (ls - 1.0))
+        Gf = 0.75 * (ls * max(tan, self.C5) + 2.0 * float(self.fiber_stress(ls)))
+        return self.K, 2.0 * (self.C1 + self.C2) + Gf
+
+    def law_parameters(self) -> list[float]:
+        return [
+            float(VOLUMETRIC_FORMS.index(self.volumetric)),
+            self.K,
+            self.C1,
+            self.C2,
+            self.C3,
+            self.C4,
+            self.C5,
+            self.lam_star,
+            self.C6,
+            float(FIBER_KINEMATICS.index(self.fiber_kinematics)),
+        ]
+
+    @classmethod
+    def _build_fiber(cls, t: WarpTypes) -> Any:
+        """``fiber(lam, prm) -> (T, dT/dlam)``: fiber stress of eq. 5 and its tangent [Pa]."""
+        s = t.scalar
+
+        @wp.func
+        def fiber(lam: s, prm: wp.array(dtype=s)):
+            if lam < s(1.0):
+                return s(0.0), s(0.0)
+            if lam < prm[O_LSTAR]:
+                e = wp.exp(prm[O_C4] * (lam - s(1.0)))
+                return prm[O_C3] * (e - s(1.0)), prm[O_C3] * prm[O_C4] * e
+            return prm[O_C5] * lam + prm[O_C6], prm[O_C5]
+
+        return fiber
+
+    @classmethod
+    def _build_parts(cls, t: WarpTypes) -> Any:
+        """``parts(F, a0, prm) -> (sigma_matrix, sigma_fiber, sigma_vol, lam)`` (Cauchy, eq. 3).
+
+        ``lam = |F a0|`` is the full fiber stretch (seed eq. 1), returned for the
+        failure criteria whatever ``fiber_kinematics`` is. Wrappers whose packed
+        vector starts with a Weiss layout (e.g. TwoSurfaceFailure) reuse it.
+        """
+        k = kinematics(t)
+        fiber = cls._build_fiber(t)
+        s = t.scalar
+
+        @wp.func
+        def parts(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s)):
+            J = wp.determinant(F)
+            eye = wp.identity(n=3, dtype=s)
+            sig_m = k.invariant_cauchy(F, prm[O_C1], prm[O_C2])
+            sig_v = k.volumetric_dUdJ(J, prm[O_FORM], prm[O_K]) * eye
+            x = F * wp.normalize(a0)
+            lam = wp.length(x)
+            a = x / lam
+            aa = wp.outer(a, a)
+            sig_f = aa
+            if prm[O_KIN] < s(0.5):
+                T, dT = fiber(lam * wp.pow(J, s(-1.0) / s(3.0)), prm)
+                sig_f = (T / J) * k.dev(aa)
+            else:
+                T, dT = fiber(lam, prm)
+                sig_f = (T / J) * aa
+            return sig_m, sig_f, sig_v, lam
+
+        return parts
+
+    @classmethod
+    def _build_stress(cls, t: WarpTypes) -> Any:
+        parts = cls._build_parts(t)
+        copy = copy_state(t)
+        s = t.scalar
+
+        @wp.func
+        def stress(
+            F: t.mat33,
+            L: t.mat33,
+            a0: t.vec3,
+            prm: wp.array(dtype=s),
+            s_in: wp.array2d(dtype=s),
+            s_out: wp.array2d(dtype=s),
+            p: int,
+            dt: s,
+        ):
+            sig_m, sig_f, sig_v, lam = parts(F, a0, prm)
+            copy(s_in, s_out, p, 0, s_in.shape[1])
+            return sig_m + sig_f + sig_v
+
+        return stress
+
+    @classmethod
+    def _build_moduli(cls, t: WarpTypes) -> Any:
+        """``moduli(F, a0, prm, s_in, p) -> (K, G)``: instantaneous moduli bounding the acoustic tensor.
+
+        Longitudinal modulus rho c^2 = K + 4G/3 with lam_f the fiber stretch and
+        b_max = I1b/3 + sqrt(2/3) |dev Bb| >= the largest eigenvalue of Bb (equal when
+        two eigenvalues coincide)::
+
+            K = K0 (1 + 2 |ln J|) / J                      ("log";  K0 max(2J - 1, 1/J) for "abaqus")
+            G = 2 (C1 + C2 I1b) b_max / J + 3/4 (lam_f T'(lam_f) + 2 T(lam_f)) / J
+
+        The fiber term follows from the acoustic tensor of W = F2(|F a0|):
+        Q(n) = (1/J) (a.n)^2 [(lam T' - 2T) a (x) a + T I], whose largest
+        eigenvalue (n = a) is (lam T' - T)/J; the extra 3T/J covers the deviatoric
+        projection of the isochoric form. The matrix term is G0 = 2 (C1 + C2) at
+        F = I and follows the neo-Hookean / Mooney-Rivlin tangent, which grows like
+        the largest principal stretch squared; the volumetric term adds the pressure's geometric terms |p| to
+        J dp/dJ. tests/materials/test_weiss.py checks that K + 4G/3 bounds the largest
+        eigenvalue of the finite-difference acoustic tensor over random deformations.
+        """
+        fiber = cls._build_fiber(t)
+        k = kinematics(t)
+        s = t.scalar
+
+        @wp.func
+        def moduli(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s), s_in: wp.array2d(dtype=s), p: int):
+            J = wp.determinant(F)
+            Bb = k.isochoric_b(F)
+            I1, I2 = k.invariants12(Bb)
+            Bd = k.dev(Bb)
+            bmax = I1 / s(3.0) + wp.sqrt(s(2.0) / s(3.0) * wp.ddot(Bd, Bd))
+            lam = wp.length(F * wp.normalize(a0))
+            if prm[O_KIN] < s(0.5):
+                lam = lam * wp.pow(J, s(-1.0) / s(3.0))
+            T, dT = fiber(lam, prm)
+            G = s(2.0) * (prm[O_C1] + prm[O_C2] * I1) * bmax / J
+            G = G + s(0.75) * (lam * dT + s(2.0) * T) / J
+            Kv = prm[O_K] * wp.max(s(2.0) * J - s(1.0), s(1.0) / J)
+            if prm[O_FORM] > s(0.5):
+                Kv = prm[O_K] * (s(1.0) + s(2.0) * wp.abs(wp.log(J))) / J
+            return Kv, G
+
+        return moduli
