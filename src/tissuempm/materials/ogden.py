@@ -1,0 +1,179 @@
+"""Ogden law in the Abaqus convention (Ogden 1972; Brewick et al. 2017 eqs 12-19).
+
+    W = sum_{i=1..N} (2 mu_i / alpha_i^2) (lb1^a_i + lb2^a_i + lb3^a_i - 3) + U(J),   G0 = sum mu_i
+
+with lb_a = J^(-1/3) lam_a the isochoric principal stretches (the square roots
+of the eigenvalues of Bb = J^(-2/3) F F^T), N <= 6, and U(J) one of the
+volumetric forms of :mod:`tissuempm.materials.invariant_hyperelastic`
+(``"abaqus"``: (1/D1)(J - 1)^2 with D1 = 2/K, the first term of eq. 12's
+volumetric sum; ``"log"``: (K/2)(ln J)^2).
+
+Relation to Ogden's original form W = sum (mu'_i / alpha_i)(sum_a lb_a^alpha_i - 3):
+mu'_i = 2 mu_i / alpha_i, and G0 = (1/2) sum mu'_i alpha_i = sum mu_i.
+
+Stress (spectral form). With beta_a = lb_a dW/dlb_a = sum_i (2 mu_i/alpha_i) lb_a^alpha_i,
+the Cauchy stress is::
+
+    sigma = (1/J) sum_a (beta_a - mean(beta)) n_a (x) n_a + U'(J) I
+
+with n_a the eigenvectors of Bb. Equal stretches give equal beta_a, so any
+orthonormal basis of a repeated eigenspace gives the same tensor: the form is
+well defined for coincident stretches (e.g. F = I, uniaxial, equibiaxial).
+
+Incompressible homogeneous closed forms (nominal stress P = (beta_1 - beta_3)/lam
+along stretch lam, direction 3 traction free)::
+
+    uniaxial (eq. 19):  P = sum (2 mu_i/alpha_i)(lam^(alpha_i-1) - lam^(-alpha_i/2-1))
+    equibiaxial:        P = sum (2 mu_i/alpha_i)(lam^(alpha_i-1) - lam^(-2 alpha_i-1))
+    pure shear:         P = sum (2 mu_i/alpha_i)(lam^(alpha_i-1) - lam^(-alpha_i-1))
+
+Special cases: N = 1, alpha = 2 is neo-Hookean with C10 = mu/2; alpha = (2, -2)
+is Mooney-Rivlin with C10 = mu_1/2, C01 = mu_2/2.
+
+Example
+-------
+>>> from tissuempm.materials import Ogden
+>>> m = Ogden(mu=(8.05e5, -5.35e5), alpha=(-1.01, 3.65), K=2.7e8, density=1240.0)
+>>> round(m.small_strain_moduli()[1])
+270000
+"""
+
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+import warp as wp
+
+from tissuempm.materials.base import PRM_OFFSET, Material, ParameterError, copy_state, parameter
+from tissuempm.materials.invariant_hyperelastic import (
+    LAW_OFFSET,
+    VOLUMETRIC_FORMS,
+    VolumetricForm,
+    volumetric_energy,
+)
+from tissuempm.materials.kinematics import kinematics
+from tissuempm.precision import WarpTypes
+
+MAX_TERMS = 6
+"""Largest number of Ogden terms N (as in Abaqus)."""
+
+_LATERAL_EXPONENT = {"uniaxial": -0.5, "equibiaxial": -2.0, "pure_shear": -1.0}
+"""Incompressible traction-free stretch lam_3 = lam^e of each loading mode."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class Ogden(Material):
+    """N-term Ogden law, Abaqus convention (module docstring).
+
+    Packed as ``[form, K, N, mu_1..mu_N, N, alpha_1..alpha_N]`` after the header.
+    The seed's only constraint is G0 = sum mu_i > 0 (individual mu_i may be negative).
+    """
+
+    kind = "ogden"
+    has_strain_energy: ClassVar[bool] = True
+
+    K: float = parameter("Pa", default=1.0e9, gt=0.0, doc="initial bulk modulus K0 (Abaqus D1 = 2/K)")
+    mu: tuple[float, ...] = parameter("Pa", default=(2.0e3,), doc="moduli mu_i (Abaqus convention), G0 = sum mu_i")
+    alpha: tuple[float, ...] = parameter("1", default=(2.0,), doc="exponents alpha_i (non-zero)")
+    volumetric: VolumetricForm = "abaqus"
+
+    @classmethod
+    def example(cls) -> "Ogden":
+        """Costal cartilage (Brewick et al. 2017 table A2), made nearly incompressible (K = 1000 G0)."""
+        mu = (8.05e5, -5.35e5)
+        return cls(mu=mu, alpha=(-1.01, 3.65), K=1000.0 * sum(mu), density=1240.0)
+
+    def check(self) -> None:
+        name = type(self).__name__
+        for field_name in ("mu", "alpha"):
+            v = getattr(self, field_name)
+            if not isinstance(v, tuple) or not 1 <= len(v) <= MAX_TERMS:
+                raise ParameterError(f"{name}.{field_name} = {v!r}: must be a tuple of 1 to {MAX_TERMS} values")
+        if len(self.mu) != len(self.alpha):
+            raise ParameterError(
+                f"{name}.mu has {len(self.mu)} terms and {name}.alpha has {len(self.alpha)}: lengths must match"
+            )
+        for i, a in enumerate(self.alpha):
+            if a == 0.0:
+                raise ParameterError(f"{name}.alpha[{i}] = 0: exponents must be non-zero")
+        if not sum(self.mu) > 0.0:
+            raise ParameterError(f"{name}.mu: sum(mu) = G0 = {sum(self.mu):g} Pa must be > 0")
+        if self.volumetric not in VOLUMETRIC_FORMS:
+            raise ParameterError(f"{name}.volumetric = {self.volumetric!r}: valid are {', '.join(VOLUMETRIC_FORMS)}")
+
+    # ------------------------------------------------------------------ NumPy
+    def small_strain_moduli(self) -> tuple[float, float]:
+        return self.K, float(sum(self.mu))
+
+    def law_parameters(self) -> list[float]:
+        return [float(VOLUMETRIC_FORMS.index(self.volumetric)), *super().law_parameters()]
+
+    def beta(self, stretch: np.ndarray) -> np.ndarray:
+        """Principal Kirchhoff-like stress beta(lb) = lb dW/dlb = sum_i (2 mu_i/alpha_i) lb^alpha_i [Pa]."""
+        lb = np.asarray(stretch, dtype=float)
+        return sum(2.0 * m / a * lb**a for m, a in zip(self.mu, self.alpha))
+
+    def principal_energy(self, stretches: np.ndarray) -> np.ndarray:
+        """Isochoric energy of isochoric principal stretches, shape (..., 3) [J/m^3]."""
+        lb = np.asarray(stretches, dtype=float)
+        return sum(2.0 * m / a**2 * (np.sum(lb**a, axis=-1) - 3.0) for m, a in zip(self.mu, self.alpha))
+
+    def strain_energy(self, F: np.ndarray, a0: np.ndarray | None = None) -> float:
+        F = np.asarray(F, dtype=float)
+        J = float(np.linalg.det(F))
+        lb2 = np.linalg.eigvalsh(J ** (-2.0 / 3.0) * F @ F.T)
+        return float(self.principal_energy(np.sqrt(lb2)) + volumetric_energy(J, self.volumetric, self.K))
+
+    def nominal_stress_incompressible(self, mode: str, stretch: np.ndarray) -> np.ndarray:
+        """Incompressible nominal stress P = (beta(lam) - beta(lam_3))/lam [Pa] (module docstring)."""
+        if mode not in _LATERAL_EXPONENT:
+            raise ValueError(f"mode = {mode!r}: valid are {', '.join(_LATERAL_EXPONENT)}")
+        lam = np.asarray(stretch, dtype=float)
+        return (self.beta(lam) - self.beta(lam ** _LATERAL_EXPONENT[mode])) / lam
+
+    # ------------------------------------------------------------------ Warp
+    @classmethod
+    def _build_stress(cls, t: WarpTypes) -> Any:
+        k = kinematics(t)
+        copy = copy_state(t)
+        s = t.scalar
+        d = wp.float64
+        o_form = PRM_OFFSET
+        o_law = LAW_OFFSET
+
+        @wp.func
+        def stress(
+            F: t.mat33,
+            L: t.mat33,
+            a0: t.vec3,
+            prm: wp.array(dtype=s),
+            s_in: wp.array2d(dtype=s),
+            s_out: wp.array2d(dtype=s),
+            p: int,
+            dt: s,
+        ):
+            # principal isochoric stretches in float64 (eig3 of Bb)
+            Fd = wp.mat33d(F)
+            Jd = wp.determinant(Fd)
+            Bb = wp.pow(Jd, d(-2.0) / d(3.0)) * (Fd * wp.transpose(Fd))
+            Q = wp.mat33d()
+            lb2 = wp.vec3d()
+            wp.eig3(Bb, Q, lb2)
+            n = int(prm[o_law])
+            beta = wp.vec3d(d(0.0), d(0.0), d(0.0))
+            for i in range(n):
+                m = d(prm[o_law + 1 + i])
+                a = d(prm[o_law + 2 + n + i])
+                c = d(2.0) * m / a
+                h = d(0.5) * a
+                beta += c * wp.vec3d(wp.pow(lb2[0], h), wp.pow(lb2[1], h), wp.pow(lb2[2], h))
+            mean = (beta[0] + beta[1] + beta[2]) / d(3.0)
+            dev_beta = beta - wp.vec3d(mean, mean, mean)
+            tau = Q * wp.diag(dev_beta) * wp.transpose(Q)
+            J = wp.determinant(F)
+            U1 = k.volumetric_dUdJ(J, prm[o_form], prm[o_form + 1])
+            copy(s_in, s_out, p, 0, s_in.shape[1])
+            return t.mat33(tau / Jd) + U1 * wp.identity(n=3, dtype=s)
+
+        return stress

@@ -1,0 +1,150 @@
+"""Reduced polynomial and generalized polynomial laws (Brewick et al. 2017 eqs 20-24; Abaqus convention).
+
+Generalized polynomial, order N <= 2 (eq. 20)::
+
+    W = sum_{1 <= i+j <= N} Cij (I1b - 3)^i (I2b - 3)^j + U(J)
+      = C10 x + C01 y + C20 x^2 + C11 x y + C02 y^2 + U(J),   x = I1b - 3, y = I2b - 3,
+    G0 = 2 (C10 + C01)
+
+Reduced polynomial, order N <= 6 (eq. 23, the j = 0 terms)::
+
+    W = sum_{i=1..N} Ci0 (I1b - 3)^i + U(J),        G0 = 2 C10
+
+The seed prints the invariants' reference value as 1 ("I1b - 1"); it must be 3
+(the value of I1b and I2b at F = I) for W and the stress to vanish there.
+Incompressible uniaxial nominal stress (eqs 22 and 24 with that correction),
+I1 = lam^2 + 2/lam, I2 = lam^-2 + 2 lam::
+
+    P = sum Cij [i x^(i-1) y^j (2 lam - 2 lam^-2) + j x^i y^(j-1) (2 - 2 lam^-3)]
+
+Example
+-------
+>>> from tissuempm.materials import Polynomial, ReducedPolynomial
+>>> ReducedPolynomial(C=(1.0e3, 200.0, 50.0), K=2.0e6).small_strain_moduli()[1]
+2000.0
+>>> Polynomial(C10=800.0, C01=200.0, K=2.0e6).small_strain_moduli()[1]
+2000.0
+"""
+
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import warp as wp
+
+from tissuempm.materials.base import ParameterError, parameter
+from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
+from tissuempm.precision import WarpTypes
+
+MAX_REDUCED_ORDER = 6
+"""Largest order N of :class:`ReducedPolynomial` (Abaqus allows N <= 6)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class ReducedPolynomial(InvariantHyperelastic):
+    """Reduced polynomial law W = sum_{i=1..N} Ci0 (I1b - 3)^i + U(J), N = len(C) <= 6.
+
+    Packed as ``[N, C10, ..., CN0]`` after the volumetric data.
+    """
+
+    kind = "reduced_polynomial"
+
+    C: tuple[float, ...] = parameter(
+        "Pa", default=(1.0e3,), doc="coefficients (C10, C20, ..., CN0) of (I1b - 3)^i, G0 = 2 C10"
+    )
+
+    @classmethod
+    def example(cls) -> "ReducedPolynomial":
+        """Soft-tissue-like stiffening (illustrative values, G0 = 2 kPa, N = 4), K = 1000 G0."""
+        return cls(C=(1.0e3, 200.0, 50.0, 5.0), K=2.0e6, density=1040.0)
+
+    def check(self) -> None:
+        if not isinstance(self.C, tuple) or not 1 <= len(self.C) <= MAX_REDUCED_ORDER:
+            raise ParameterError(
+                f"ReducedPolynomial.C = {self.C!r}: must be a tuple of 1 to {MAX_REDUCED_ORDER} coefficients "
+                "(C10, ..., CN0)"
+            )
+        if not self.C[0] > 0.0:
+            raise ParameterError(f"ReducedPolynomial.C[0] = C10 = {self.C[0]:g} Pa: must be > 0 (G0 = 2 C10 > 0)")
+        super().check()
+
+    def iso_energy(self, I1: np.ndarray, I2: np.ndarray) -> np.ndarray:
+        x = np.asarray(I1, dtype=float) - 3.0
+        return sum(c * x ** (i + 1) for i, c in enumerate(self.C))
+
+    def iso_derivatives(self, I1: np.ndarray, I2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        x = np.asarray(I1, dtype=float) - 3.0
+        return sum((i + 1) * c * x**i for i, c in enumerate(self.C)), 0.0 * np.asarray(I2, dtype=float)
+
+    @classmethod
+    def _build_derivatives(cls, t: WarpTypes) -> Any:
+        s = t.scalar
+
+        @wp.func
+        def dW(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
+            n = int(prm[o])
+            x = I1 - s(3.0)
+            W1 = s(0.0)
+            xi = s(1.0)  # x^(i-1)
+            order = s(1.0)  # i, kept as a scalar (no int -> float cast of the loop index)
+            for i in range(n):
+                W1 += order * prm[o + 1 + i] * xi
+                xi *= x
+                order += s(1.0)
+            return W1, s(0.0)
+
+        return dW
+
+
+@dataclass(frozen=True, kw_only=True)
+class Polynomial(InvariantHyperelastic):
+    """Generalized polynomial law of order N <= 2 (module docstring).
+
+    Terms not given are zero, so ``Polynomial(C10=..., C01=...)`` is Mooney-Rivlin.
+    """
+
+    kind = "polynomial"
+
+    C10: float = parameter("Pa", default=1.0e3, doc="coefficient of (I1b - 3)")
+    C01: float = parameter("Pa", default=0.0, doc="coefficient of (I2b - 3)")
+    C20: float = parameter("Pa", default=0.0, doc="coefficient of (I1b - 3)^2")
+    C11: float = parameter("Pa", default=0.0, doc="coefficient of (I1b - 3)(I2b - 3)")
+    C02: float = parameter("Pa", default=0.0, doc="coefficient of (I2b - 3)^2")
+
+    @classmethod
+    def example(cls) -> "Polynomial":
+        """Soft-tissue-like second-order law (illustrative values, G0 = 2 kPa), K = 1000 G0."""
+        return cls(C10=800.0, C01=200.0, C20=150.0, C11=-20.0, C02=10.0, K=2.0e6, density=1040.0)
+
+    def check(self) -> None:
+        if not self.C10 + self.C01 > 0.0:
+            raise ParameterError(
+                f"Polynomial.C10 + C01 = {self.C10 + self.C01:g} Pa: must be > 0 (G0 = 2 (C10 + C01) > 0)"
+            )
+        super().check()
+
+    def iso_energy(self, I1: np.ndarray, I2: np.ndarray) -> np.ndarray:
+        x, y = I1 - 3.0, I2 - 3.0
+        return self.C10 * x + self.C01 * y + self.C20 * x * x + self.C11 * x * y + self.C02 * y * y
+
+    def iso_derivatives(self, I1: np.ndarray, I2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        x, y = I1 - 3.0, I2 - 3.0
+        return (
+            self.C10 + 2.0 * self.C20 * x + self.C11 * y,
+            self.C01 + self.C11 * x + 2.0 * self.C02 * y,
+        )
+
+    @classmethod
+    def _build_derivatives(cls, t: WarpTypes) -> Any:
+        s = t.scalar
+
+        @wp.func
+        def dW(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
+            x = I1 - s(3.0)
+            y = I2 - s(3.0)
+            W1 = prm[o] + s(2.0) * prm[o + 2] * x + prm[o + 3] * y
+            W2 = prm[o + 1] + prm[o + 3] * x + s(2.0) * prm[o + 4] * y
+            return W1, W2
+
+        return dW

@@ -1,0 +1,63 @@
+"""Yeoh law (Yeoh 1993; Brewick et al. 2017 eqs 25-26; Abaqus convention).
+
+    W = C10 (I1b - 3) + C20 (I1b - 3)^2 + C30 (I1b - 3)^3 + U(J),        G0 = 2 C10
+
+The reduced polynomial law (eq. 23) with N = 3. Incompressible uniaxial nominal
+stress (seed 004 eq. 26, with the reference value 3 of I1b; see
+docs/materials/hyperelastic.md)::
+
+    P = 2 (lam - lam^-2) [C10 + 2 C20 (I1 - 3) + 3 C30 (I1 - 3)^2],   I1 = lam^2 + 2/lam
+
+Example
+-------
+>>> from tissuempm.materials import Yeoh
+>>> m = Yeoh(C10=1.0e3, C20=200.0, C30=50.0, K=2.0e6)
+>>> m.small_strain_moduli()[1]
+2000.0
+"""
+
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import warp as wp
+
+from tissuempm.materials.base import parameter
+from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
+from tissuempm.precision import WarpTypes
+
+
+@dataclass(frozen=True, kw_only=True)
+class Yeoh(InvariantHyperelastic):
+    """Yeoh law W = sum_{i=1..3} Ci0 (I1b - 3)^i + U(J)."""
+
+    kind = "yeoh"
+
+    C10: float = parameter("Pa", default=1.0e3, gt=0.0, doc="coefficient of (I1b - 3), G0 = 2 C10")
+    C20: float = parameter("Pa", default=0.0, doc="coefficient of (I1b - 3)^2")
+    C30: float = parameter("Pa", default=0.0, doc="coefficient of (I1b - 3)^3")
+
+    @classmethod
+    def example(cls) -> "Yeoh":
+        """Soft-tissue-like stiffening (illustrative values, G0 = 2 kPa), K = 1000 G0."""
+        return cls(C10=1.0e3, C20=200.0, C30=50.0, K=2.0e6, density=1040.0)
+
+    def iso_energy(self, I1: np.ndarray, I2: np.ndarray) -> np.ndarray:
+        x = I1 - 3.0
+        return x * (self.C10 + x * (self.C20 + x * self.C30))
+
+    def iso_derivatives(self, I1: np.ndarray, I2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        x = I1 - 3.0
+        return self.C10 + x * (2.0 * self.C20 + 3.0 * self.C30 * x), 0.0 * I2
+
+    @classmethod
+    def _build_derivatives(cls, t: WarpTypes) -> Any:
+        s = t.scalar
+
+        @wp.func
+        def dW(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
+            x = I1 - s(3.0)
+            return prm[o] + x * (s(2.0) * prm[o + 1] + s(3.0) * prm[o + 2] * x), s(0.0)
+
+        return dW
