@@ -13,14 +13,40 @@ from tissuempm.materials.base import (
     get_material_class,
     parameter,
 )
+from tissuempm.materials.eos import IdealGas, UsUp
+from tissuempm.materials.hgo import HGO
+from tissuempm.materials.linear_elastic import LinearElastic, TransverselyIsotropicElastic
+from tissuempm.materials.mooney_rivlin import MooneyRivlin
 from tissuempm.materials.neo_hookean import NeoHookean
+from tissuempm.materials.ogden import Ogden
+from tissuempm.materials.polynomial import Polynomial, ReducedPolynomial
+from tissuempm.materials.viscoelastic import Viscoelastic
+from tissuempm.materials.yeoh import Yeoh
+from tissuempm.materials.weiss import Weiss
+from tissuempm.materials.failure import FailureMode, TwoSurfaceFailure
+from tissuempm.materials.elastic_plastic import ElasticPlastic
 
 __all__ = [
     "MATERIALS",
+    "ElasticPlastic",
+    "FailureMode",
+    "HGO",
+    "IdealGas",
+    "LinearElastic",
     "Material",
+    "MooneyRivlin",
     "NeoHookean",
+    "Ogden",
     "ParameterError",
+    "Polynomial",
+    "ReducedPolynomial",
     "StateVar",
+    "TransverselyIsotropicElastic",
+    "TwoSurfaceFailure",
+    "UsUp",
+    "Viscoelastic",
+    "Weiss",
+    "Yeoh",
     "from_dict",
     "get_material_class",
     "parameter",

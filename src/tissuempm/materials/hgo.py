@@ -43,17 +43,13 @@ from tissuempm.materials.base import (
     PRM_G_WAVE,
     PRM_K_WAVE,
     PRM_OFFSET,
-    Material,
-    ParameterError,
     copy_state,
     parameter,
 )
 from tissuempm.materials.invariant_hyperelastic import (
     LAW_OFFSET,
-    VOLUMETRIC_FORMS,
-    VolumetricForm,
+    UncoupledHyperelastic,
     incompressible_invariants,
-    volumetric_energy,
 )
 from tissuempm.materials.kinematics import kinematics
 from tissuempm.precision import WarpTypes
@@ -67,7 +63,7 @@ _I1_FACTOR = {
 
 
 @dataclass(frozen=True, kw_only=True)
-class HGO(Material):
+class HGO(UncoupledHyperelastic):
     """Holzapfel-Gasser-Ogden law, one dispersed fiber family along ``a0`` (module docstring).
 
     Packed as ``[form, K, C10, k1, k2, kappa]`` after the header.
@@ -75,14 +71,11 @@ class HGO(Material):
 
     kind = "hgo"
     anisotropic: ClassVar[bool] = True
-    has_strain_energy: ClassVar[bool] = True
 
-    K: float = parameter("Pa", default=1.0e9, gt=0.0, doc="initial bulk modulus K0 (Abaqus D1 = 2/K)")
     C10: float = parameter("Pa", default=1.0e3, gt=0.0, doc="matrix coefficient, C10 = c/2, G0 = 2 C10")
     k1: float = parameter("Pa", default=1.0e4, ge=0.0, doc="fiber stress parameter")
     k2: float = parameter("1", default=1.0, gt=0.0, doc="fiber exponential stiffening parameter")
     kappa: float = parameter("1", default=0.0, ge=0.0, le=1.0 / 3.0, doc="fiber dispersion, 0 aligned to 1/3 isotropic")
-    volumetric: VolumetricForm = "abaqus"
 
     @classmethod
     def example(cls) -> "HGO":
@@ -91,20 +84,11 @@ class HGO(Material):
         c = 7.64e3
         return cls(C10=0.5 * c, k1=996.6e3, k2=524.6, kappa=0.333, K=1000.0 * c, density=1000.0)
 
-    def check(self) -> None:
-        if self.volumetric not in VOLUMETRIC_FORMS:
-            raise ParameterError(
-                f"HGO.volumetric = {self.volumetric!r}: valid are {', '.join(VOLUMETRIC_FORMS)}"
-            )
-
     # ------------------------------------------------------------------ NumPy
     def small_strain_moduli(self) -> tuple[float, float]:
         """(K, G0 = 2 C10): the fiber term is quadratic in E, so it adds nothing to the
         isotropic shear modulus at F = I (see :meth:`moduli_function` for the wave speed)."""
         return self.K, 2.0 * self.C10
-
-    def law_parameters(self) -> list[float]:
-        return [float(VOLUMETRIC_FORMS.index(self.volumetric)), *super().law_parameters()]
 
     def fiber_strain(self, I1: np.ndarray, I4: np.ndarray) -> np.ndarray:
         """E = kappa (I1b - 3) + (1 - 3 kappa)(I4b - 1) (before the Macaulay bracket)."""
@@ -129,7 +113,7 @@ class HGO(Material):
         Bb = J ** (-2.0 / 3.0) * F @ F.T
         ab = J ** (-1.0 / 3.0) * F @ a
         W = self.iso_energy(np.trace(Bb), ab @ ab)
-        return float(W + volumetric_energy(J, self.volumetric, self.K))
+        return float(W + self.volumetric_energy(J))
 
     def nominal_stress_incompressible(self, mode: str, stretch: np.ndarray) -> np.ndarray:
         """Incompressible nominal stress P [Pa] with the fiber along the loading axis e1 (module docstring)."""

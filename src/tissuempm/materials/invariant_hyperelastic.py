@@ -70,8 +70,9 @@ def incompressible_invariants(mode: str, lam: np.ndarray) -> tuple[np.ndarray, n
 
 
 @dataclass(frozen=True, kw_only=True)
-class InvariantHyperelastic(Material):
-    """Base of uncoupled isotropic laws W_iso(I1b, I2b) + U(J) (see module docstring)."""
+class UncoupledHyperelastic(Material):
+    """Base of uncoupled hyperelastic laws W_iso + U(J): the bulk modulus ``K``, the volumetric
+    form and their packing ``[form code, K, ...]`` (law data then start at :data:`LAW_OFFSET`)."""
 
     has_strain_energy: ClassVar[bool] = True
 
@@ -83,6 +84,21 @@ class InvariantHyperelastic(Material):
             raise ParameterError(
                 f"{type(self).__name__}.volumetric = {self.volumetric!r}: valid are {', '.join(VOLUMETRIC_FORMS)}"
             )
+
+    def law_parameters(self) -> list[float]:
+        return [float(VOLUMETRIC_FORMS.index(self.volumetric)), *super().law_parameters()]
+
+    def volumetric_energy(self, J: np.ndarray) -> np.ndarray:
+        """U(J) [J/m^3] of this law's volumetric form."""
+        return volumetric_energy(J, self.volumetric, self.K)
+
+
+@dataclass(frozen=True, kw_only=True)
+class InvariantHyperelastic(UncoupledHyperelastic):
+    """Base of uncoupled isotropic laws W_iso(I1b, I2b) + U(J) (see module docstring)."""
+
+    def check(self) -> None:
+        super().check()
         if self.shear_modulus() <= 0.0:
             raise ParameterError(
                 f"{type(self).__name__}: initial shear modulus G0 = {self.shear_modulus():g} Pa must be > 0"
@@ -111,12 +127,9 @@ class InvariantHyperelastic(Material):
     def small_strain_moduli(self) -> tuple[float, float]:
         return self.K, self.shear_modulus()
 
-    def law_parameters(self) -> list[float]:
-        return [float(VOLUMETRIC_FORMS.index(self.volumetric)), *super().law_parameters()]
-
     def strain_energy(self, F: np.ndarray, a0: np.ndarray | None = None) -> float:
         I1, I2, J = isochoric_invariants(np.asarray(F, dtype=float))
-        return float(self.iso_energy(np.array(I1), np.array(I2)) + volumetric_energy(J, self.volumetric, self.K))
+        return float(self.iso_energy(np.array(I1), np.array(I2)) + self.volumetric_energy(J))
 
     def nominal_stress_incompressible(self, mode: str, stretch: np.ndarray) -> np.ndarray:
         """Incompressible nominal stress P [Pa] along the stretch for ``mode`` (module docstring)."""

@@ -40,17 +40,15 @@ Example
 
 
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 import warp as wp
 
-from tissuempm.materials.base import PRM_OFFSET, Material, ParameterError, copy_state, parameter
+from tissuempm.materials.base import PRM_OFFSET, ParameterError, copy_state, parameter
 from tissuempm.materials.invariant_hyperelastic import (
     LAW_OFFSET,
-    VOLUMETRIC_FORMS,
-    VolumetricForm,
-    volumetric_energy,
+    UncoupledHyperelastic,
 )
 from tissuempm.materials.kinematics import kinematics
 from tissuempm.precision import WarpTypes
@@ -63,7 +61,7 @@ _LATERAL_EXPONENT = {"uniaxial": -0.5, "equibiaxial": -2.0, "pure_shear": -1.0}
 
 
 @dataclass(frozen=True, kw_only=True)
-class Ogden(Material):
+class Ogden(UncoupledHyperelastic):
     """N-term Ogden law, Abaqus convention (module docstring).
 
     Packed as ``[form, K, N, mu_1..mu_N, N, alpha_1..alpha_N]`` after the header.
@@ -71,12 +69,8 @@ class Ogden(Material):
     """
 
     kind = "ogden"
-    has_strain_energy: ClassVar[bool] = True
-
-    K: float = parameter("Pa", default=1.0e9, gt=0.0, doc="initial bulk modulus K0 (Abaqus D1 = 2/K)")
     mu: tuple[float, ...] = parameter("Pa", default=(2.0e3,), doc="moduli mu_i (Abaqus convention), G0 = sum mu_i")
     alpha: tuple[float, ...] = parameter("1", default=(2.0,), doc="exponents alpha_i (non-zero)")
-    volumetric: VolumetricForm = "abaqus"
 
     @classmethod
     def example(cls) -> "Ogden":
@@ -85,6 +79,7 @@ class Ogden(Material):
         return cls(mu=mu, alpha=(-1.01, 3.65), K=1000.0 * sum(mu), density=1240.0)
 
     def check(self) -> None:
+        super().check()
         name = type(self).__name__
         for field_name in ("mu", "alpha"):
             v = getattr(self, field_name)
@@ -99,15 +94,10 @@ class Ogden(Material):
                 raise ParameterError(f"{name}.alpha[{i}] = 0: exponents must be non-zero")
         if not sum(self.mu) > 0.0:
             raise ParameterError(f"{name}.mu: sum(mu) = G0 = {sum(self.mu):g} Pa must be > 0")
-        if self.volumetric not in VOLUMETRIC_FORMS:
-            raise ParameterError(f"{name}.volumetric = {self.volumetric!r}: valid are {', '.join(VOLUMETRIC_FORMS)}")
 
     # ------------------------------------------------------------------ NumPy
     def small_strain_moduli(self) -> tuple[float, float]:
         return self.K, float(sum(self.mu))
-
-    def law_parameters(self) -> list[float]:
-        return [float(VOLUMETRIC_FORMS.index(self.volumetric)), *super().law_parameters()]
 
     def beta(self, stretch: np.ndarray) -> np.ndarray:
         """Principal Kirchhoff-like stress beta(lb) = lb dW/dlb = sum_i (2 mu_i/alpha_i) lb^alpha_i [Pa]."""
@@ -123,7 +113,7 @@ class Ogden(Material):
         F = np.asarray(F, dtype=float)
         J = float(np.linalg.det(F))
         lb2 = np.linalg.eigvalsh(J ** (-2.0 / 3.0) * F @ F.T)
-        return float(self.principal_energy(np.sqrt(lb2)) + volumetric_energy(J, self.volumetric, self.K))
+        return float(self.principal_energy(np.sqrt(lb2)) + self.volumetric_energy(J))
 
     def nominal_stress_incompressible(self, mode: str, stretch: np.ndarray) -> np.ndarray:
         """Incompressible nominal stress P = (beta(lam) - beta(lam_3))/lam [Pa] (module docstring)."""
