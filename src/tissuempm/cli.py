@@ -109,8 +109,8 @@ def materials_show(
         "source": entry.source,
         "notes": entry.notes,
         "parameters": _parameter_rows(material),
-        "derived": library.derived(entry),
-        "stability": library.stability(material),
+        "derived": {k: {"value": q.value, "unit": q.unit} for k, q in library.derived(entry).items()},
+        "stability": _stability_rows(library.stability(material)),
     }
     if json_output:
         typer.echo(json.dumps(_jsonable(info), indent=2))
@@ -128,15 +128,27 @@ def materials_show(
     derived = Table(title="derived values")
     derived.add_column("quantity")
     derived.add_column("value")
-    for key, value in info["derived"].items():
-        derived.add_row(key, str(value))
+    for key, q in info["derived"].items():
+        derived.add_row(key, f"{q['value']:.6g} {q['unit']}".strip())
     console.print(derived)
-    stab = Table(title="Drucker-stable range (engineering strain, within -30%..+30%)")
-    stab.add_column("mode")
-    stab.add_column("stable")
-    for key, value in info["stability"].items():
-        stab.add_row(key, str(value))
+    stab = Table(title="Drucker stability (dP/dlam > 0), engineering strain within -30%..+30%")
+    for col in ("mode", "stable", "unstable"):
+        stab.add_column(col)
+    for row in info["stability"]:
+        if row["error"]:
+            stab.add_row(row["mode"], "not evaluated", row["error"])
+            continue
+        fmt = lambda ivs: ", ".join(f"{a:+.3f}..{b:+.3f}" for a, b in ivs) or "-"  # noqa: E731
+        stab.add_row(row["mode"], fmt(row["stable"]), fmt(row["unstable"]))
     console.print(stab)
+
+
+def _stability_rows(report) -> list[dict]:
+    return [
+        {"mode": m.mode, "stable": [list(i) for i in m.stable], "unstable": [list(i) for i in m.unstable],
+         "error": m.error}
+        for m in report.modes.values()
+    ]
 
 
 def _parameter_rows(material, prefix: str = "") -> list[dict]:

@@ -236,7 +236,8 @@ def drive(
     precision
         Warp precision of the stress evaluation.
     tol
-        Convergence tolerance on the zero stresses, relative to the initial shear modulus.
+        Convergence tolerance on the zero stresses, relative to the initial shear modulus
+        (to 1e-3 of the bulk modulus for fluids).
     max_iter
         Newton iterations allowed per step.
     """
@@ -255,7 +256,8 @@ def drive(
 
     ev = PointEvaluator(material, fiber, precision)
     unknowns, zeros = _UNKNOWNS[mode], _ZERO_STRESS[mode]
-    scale = max(material.small_strain_moduli()[1], 1e-30)
+    K0, G0 = material.small_strain_moduli()
+    scale = max(G0, 1e-3 * K0, 1e-30)  # fluids (G0 = 0) are scaled by their bulk modulus
     h = 1e-7 if precision == "float64" else 3e-4
     tol_abs = tol * scale if precision == "float64" else 1e-4 * scale
 
