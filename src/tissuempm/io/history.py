@@ -1,0 +1,71 @@
+"""A CSV time series of global quantities, one row per output frame (``history.csv``).
+
+Columns: ``time`` [s], ``step``, ``kinetic_energy`` [J], ``momentum_x/y/z`` [kg m/s]
+and ``internal_work`` [J] of the deformable particles, ``failed`` (particles with a
+failure code > 0), ``reaction_<material>_x/y/z`` [N] on each rigid material and
+``fixed_reaction_x/y/z`` [N] on the fixed particles (the force the rest of the model
+exerts on them; e.g. the grip force of a tensile test).
+"""
+
+import csv
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tissuempm.io.files import atomic_path
+
+
+class HistoryLog:
+    """Appends rows to ``path``; ``rigid`` maps rigid material index -> name."""
+
+    def __init__(self, path: str | Path, rigid: dict[int, str]):
+        self.path = Path(path)
+        self.rigid = dict(rigid)
+        xyz = ("x", "y", "z")
+        self.columns = ["time", "step", "kinetic_energy", *(f"momentum_{c}" for c in xyz), "internal_work", "failed"]
+        for name in self.rigid.values():
+            self.columns += [f"reaction_{name}_{c}" for c in xyz]
+        self.columns += [f"fixed_reaction_{c}" for c in xyz]
+
+    def row(self, data: dict[str, Any]) -> list[float]:
+        """The row of one ``State.to_numpy()`` snapshot."""
+        mat = np.asarray(data["material"])
+        deform = ~np.isin(mat, list(self.rigid))
+        m = np.where(deform, np.asarray(data["mass"], float), 0.0)
+        v = np.asarray(data["v"], float)
+        R = np.asarray(data.get("reaction", np.zeros_like(v)), float)
+        fixed = np.asarray(data.get("fixed", np.zeros(len(m), bool)), bool)
+        out = [float(data["time"]), int(data["step"]), 0.5 * float(np.sum(m * np.sum(v * v, axis=1)))]
+        out += list((m[:, None] * v).sum(axis=0))
+        out.append(float(np.sum(np.asarray(data.get("work", np.zeros(len(m))))[deform])))
+        out.append(int(np.sum(np.asarray(data.get("failure", np.zeros(len(m)))) > 0)))
+        for i in self.rigid:
+            out += list(R[mat == i].sum(axis=0))
+        out += list(R[fixed & deform].sum(axis=0))
+        return out
+
+    def append(self, data: dict[str, Any]) -> None:
+        new = not self.path.exists()
+        with open(self.path, "a", newline="") as f:
+            w = csv.writer(f)
+            if new:
+                w.writerow(self.columns)
+            w.writerow([repr(float(x)) if k != 1 else int(x) for k, x in enumerate(self.row(data))])
+
+    def truncate(self, step: int) -> None:
+        """Keep the rows up to ``step`` (a restart rewrites the later ones)."""
+        if not self.path.exists():
+            return
+        with open(self.path, newline="") as f:
+            rows = list(csv.reader(f))
+        keep = [rows[0]] + [r for r in rows[1:] if int(r[1]) <= step]
+        with atomic_path(self.path) as tmp, open(tmp, "w", newline="") as f:
+            csv.writer(f).writerows(keep)
+
+    def read(self) -> dict[str, np.ndarray]:
+        """Columns as arrays."""
+        with open(self.path, newline="") as f:
+            rows = list(csv.reader(f))
+        values = np.array(rows[1:], dtype=float).reshape(-1, len(rows[0]))
+        return {name: values[:, k] for k, name in enumerate(rows[0])}

@@ -1,0 +1,116 @@
+"""``tissuempm run FILE.toml``: run a scenario with a progress bar (registered in :mod:`tissuempm.cli`)."""
+
+import time as wallclock
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, Progress, ProgressColumn, Task, TextColumn, TimeElapsedColumn
+from rich.text import Text
+
+from tissuempm.io import CheckpointError
+from tissuempm.scenarios import runner
+from tissuempm.scenarios.schema import ScenarioError, load_scenario
+
+console = Console(stderr=True)
+
+
+def _si_time(t: float) -> str:
+    if t == 0.0:
+        return "0 s"
+    for scale, unit in ((1.0, "s"), (1e-3, "ms"), (1e-6, "us")):
+        if abs(t) >= scale or unit == "us":
+            return f"{t / scale:.4g} {unit}"
+    return f"{t:g} s"
+
+
+class _Eta(ProgressColumn):
+    """Wall-clock time left, from the simulated time still to go and the recent rate."""
+
+    def render(self, task: Task) -> Text:
+        rate = task.fields.get("rate")  # simulated seconds per wall second
+        if not rate or task.total is None:
+            return Text("ETA --:--", style="cyan")
+        left = max(0.0, (task.total - task.completed) / rate)
+        m, s = divmod(int(left), 60)
+        h, m = divmod(m, 60)
+        return Text(f"ETA {h:d}:{m:02d}:{s:02d}", style="cyan")
+
+
+def default_out(scenario: Path, configured: str | None) -> Path:
+    """Output folder: ``run.output`` (relative to the scenario file) or ``results/<file stem>``."""
+    if configured:
+        p = Path(configured)
+        return p if p.is_absolute() else scenario.parent / p
+    return Path("results") / scenario.stem
+
+
+def run(
+    scenario: Annotated[Path, typer.Argument(help="Scenario TOML file (see docs/scenarios.md).")],
+    out: Annotated[
+        Path | None, typer.Option("--out", "-o", help="Output folder (default: run.output or results/<name>).")
+    ] = None,
+    device: Annotated[str, typer.Option("--device", help="cpu or cuda.")] = "cpu",
+    restart: Annotated[bool, typer.Option("--restart", help="Continue from the last checkpoint in the output folder.")] = False,
+) -> None:
+    """Run an MPM scenario: VTU frames + .pvd for ParaView, HDF5 checkpoints and summary.json."""
+    try:
+        sc = load_scenario(scenario)
+    except ScenarioError as e:
+        console.print(f"[red]error:[/red] {e}", markup=True, highlight=False)
+        raise typer.Exit(2) from None
+    out_dir = out if out is not None else default_out(scenario, sc.run.output)
+    try:
+        job = runner.Runner(sc, out_dir, device=device)
+    except (ScenarioError, ValueError) as e:
+        console.print(f"[red]error:[/red] {e}", highlight=False)
+        raise typer.Exit(2) from None
+    n = job.problem.particles.n
+    console.print(f"[bold]{sc.name}[/bold]: {n} particles, grid {job.problem.model.grid.shape} cells, output {out_dir}")
+
+    columns = (
+        TextColumn("[progress.description]{task.description}"),
+        BarColumn(),
+        TextColumn("t = {task.fields[t]} / {task.fields[end]}"),
+        TextColumn("{task.fields[sps]:.0f} steps/s"),
+        TimeElapsedColumn(),
+        _Eta(),
+    )
+    last: dict[str, float] = {"wall": 0.0}
+    try:
+        with Progress(*columns, console=console, transient=False) as bar:
+            task = bar.add_task("running", total=sc.run.end_time, t=_si_time(0.0), end=_si_time(sc.run.end_time), sps=0.0)
+
+            def show(p: runner.Progress) -> None:
+                now = wallclock.perf_counter()
+                if "t0" not in last:  # first step (after a restart: the checkpoint time)
+                    last.update(t0=p.time, clock0=now)
+                if now - last["wall"] < 0.1 and p.time < p.end_time:
+                    return
+                last["wall"] = now
+                fields: dict[str, object] = {"t": _si_time(p.time), "sps": p.steps_per_s}
+                if now > last["clock0"] and p.time > last["t0"]:
+                    fields["rate"] = (p.time - last["t0"]) / (now - last["clock0"])
+                bar.update(task, completed=min(p.time, p.end_time), **fields)
+
+            result = job.run(restart=restart, progress=show)
+    except CheckpointError as e:
+        console.print(f"[red]error:[/red] {e}", highlight=False)
+        raise typer.Exit(2) from None
+    except KeyboardInterrupt:
+        console.print(f"[yellow]interrupted[/yellow]: continue with --restart (checkpoint in {out_dir})")
+        raise typer.Exit(130) from None
+
+    s = result.summary
+    if result.status == "unstable":
+        console.print(f"[red]stopped, the run went unstable:[/red] {result.message}", highlight=False)
+        console.print(
+            f"last checkpoint at t = {_si_time(s['checkpoint']['time'])} (step {s['checkpoint']['step']}) "
+            f"kept in {out_dir / runner.CHECKPOINT}"
+        )
+        raise typer.Exit(1)
+    console.print(
+        f"[green]{result.status}[/green]: t = {_si_time(result.time)} in {result.steps} steps, "
+        f"{s['wall_s']:.1f} s wall; open {out_dir / s['pvd']} in ParaView"
+    )

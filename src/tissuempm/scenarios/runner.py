@@ -1,0 +1,270 @@
+"""The run loop: step the solver to ``run.end_time`` with VTU frames, checkpoints and a summary.
+
+Output folder layout::
+
+    particles.pvd            ParaView index of the VTU frames (open this)
+    frames/particles_*.vtu   one frame per output interval (and the last state)
+    checkpoint.h5            the latest checkpoint (atomic: never half-written)
+    history.csv              time series of energy, momentum, reactions (one row per frame)
+    summary.json             status, time reached, steps, speed, diagnostics
+    scenario.json            the validated scenario in SI units
+
+A frame is written at the first step reaching each multiple of
+``run.output_interval`` and a checkpoint at each multiple of
+``run.checkpoint_interval`` (both at time 0 too, and both at the end).
+
+Restart (``restart=True``) reads ``checkpoint.h5``, checks that it belongs to the
+same physical problem (a hash of every section except ``[run]``, so a run may be
+extended by raising ``run.end_time``), drops the frames written after it and
+continues. The checkpoint holds the complete particle state and the loop's
+counters, and the step is a deterministic function of the state, so a restarted
+run ends in the same state as an uninterrupted one.
+
+A run that goes unstable (:class:`tissuempm.mpm.InstabilityError`: NaN, J <= 0,
+a particle leaving the grid, a collapsing time step) stops with status
+``"unstable"``; the checkpoint from before the failure is kept.
+"""
+
+import hashlib
+import json
+import math
+import time as wallclock
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tissuempm import __version__
+from tissuempm.io import (
+    CheckpointError,
+    HistoryLog,
+    VTUSeries,
+    particle_fields,
+    read_checkpoint,
+    write_checkpoint,
+    write_json,
+)
+from tissuempm.mpm import ExplicitSolver, InstabilityError, State
+from tissuempm.scenarios.build import Problem, build
+from tissuempm.scenarios.schema import Scenario
+
+CHECKPOINT = "checkpoint.h5"
+SUMMARY = "summary.json"
+HISTORY = "history.csv"
+
+
+@dataclass
+class Progress:
+    """What a progress display needs after each step."""
+
+    time: float
+    """Simulated time reached [s]."""
+    end_time: float
+    step: int
+    dt: float
+    """Last time step [s]."""
+    steps_per_s: float
+    """Steps per wall-clock second since this process started stepping."""
+
+
+@dataclass
+class RunResult:
+    """Outcome of :meth:`Runner.run`.
+
+    ``status`` is ``"completed"``, ``"max_steps"`` (stopped by ``run.max_steps``)
+    or ``"unstable"``; ``message`` explains an unstable stop.
+    """
+
+    status: str
+    time: float
+    steps: int
+    out: Path
+    message: str = ""
+    summary: dict[str, Any] = field(default_factory=dict)
+
+
+def problem_hash(scenario: Scenario) -> str:
+    """Hash of everything that determines the solution (all sections except ``[run]`` and names)."""
+    data = scenario.model_dump(mode="json", exclude={"run", "name", "description"})
+    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def _next_multiple(t: float, interval: float) -> float:
+    """The first multiple of ``interval`` strictly after ``t`` (with a relative tolerance)."""
+    k = math.floor(t / interval * (1.0 + 1e-12) + 1e-12) + 1
+    return k * interval
+
+
+class Runner:
+    """Runs one scenario into an output folder.
+
+    Parameters
+    ----------
+    scenario
+        The validated scenario.
+    out
+        Output folder (created).
+    device
+        ``"cpu"`` or ``"cuda"``.
+    """
+
+    def __init__(self, scenario: Scenario, out: str | Path, device: str = "cpu"):
+        self.scenario = scenario
+        self.out = Path(out)
+        self.device = device
+        self.problem: Problem = build(scenario, device)
+        self.solver = ExplicitSolver(self.problem.model, self.problem.config)
+        self.materials = self.problem.model.materials
+
+    # ------------------------------------------------------------------ output
+    def _write_frame(self, data: dict[str, Any]) -> None:
+        fields = particle_fields(data, self.materials)
+        fields["body"] = self.problem.body  # to_numpy() returns the original particle order
+        self.series.write(float(data["time"]), np.asarray(data["x"]), fields)
+        self.history.append(data)
+
+    def _checkpoint(self, data: dict[str, Any]) -> None:
+        meta = {
+            "problem_hash": problem_hash(self.scenario),
+            "version": __version__,
+            "time": float(data["time"]),
+            "step": int(data["step"]),
+            "frames": self.series.frames,
+            "wall_s": self._wall(),
+        }
+        write_checkpoint(self.out / CHECKPOINT, data, meta)
+        self.checkpoint_at = (float(data["time"]), int(data["step"]))
+
+    def _wall(self) -> float:
+        return self.wall_before + wallclock.perf_counter() - self.clock0
+
+    def _resume(self) -> State:
+        arrays, meta = read_checkpoint(self.out / CHECKPOINT)
+        if meta.get("problem_hash") != problem_hash(self.scenario):
+            raise CheckpointError(
+                f"{self.out / CHECKPOINT} belongs to a different scenario (only [run] may change for a restart)"
+            )
+        state = State.from_numpy(self.solver, arrays)
+        self.series.frames = [(float(t), str(f)) for t, f in meta["frames"]]
+        self.series.truncate(len(self.series.frames))
+        self.history.truncate(int(meta["step"]))
+        self.wall_before = float(meta.get("wall_s", 0.0))
+        self.checkpoint_at = (float(meta["time"]), int(meta["step"]))
+        return state
+
+    # ------------------------------------------------------------------ loop
+    def run(self, restart: bool = False, progress: Callable[[Progress], None] | None = None) -> RunResult:
+        """Run to ``run.end_time`` (or ``run.max_steps``); see the module docstring.
+
+        Raises :class:`~tissuempm.io.CheckpointError` when ``restart`` finds no usable checkpoint.
+        """
+        run = self.scenario.run
+        self.out.mkdir(parents=True, exist_ok=True)
+        self.series = VTUSeries(self.out)
+        rigid = {i: n for i, n in enumerate(self.problem.material_names) if self.problem.model.is_rigid(i)}
+        self.history = HistoryLog(self.out / HISTORY, rigid)
+        self.clock0, self.wall_before = wallclock.perf_counter(), 0.0
+        if restart:
+            state = self._resume()
+            restarted_from: float | None = state.time
+        else:
+            for stale in (self.out / HISTORY, self.out / SUMMARY):
+                stale.unlink(missing_ok=True)
+            self.series.truncate(0)
+            state = self.solver.initial_state(self.problem.particles)
+            restarted_from = None
+            data = state.to_numpy()
+            self._write_frame(data)
+            self._checkpoint(data)
+        write_json(self.out / "scenario.json", self.scenario.model_dump(mode="json", by_alias=True))
+
+        next_frame = _next_multiple(state.time, run.frame_interval)
+        next_ckpt = _next_multiple(state.time, run.checkpoint_every)
+        first_step, status, message, instability = state.step, "completed", "", None
+        self.clock0 = wallclock.perf_counter()
+        try:
+            while state.time < run.end_time * (1.0 - 1e-12):
+                if run.max_steps is not None and state.step >= run.max_steps:
+                    status = "max_steps"
+                    break
+                dt = self.solver.step(state)
+                frame_due = state.time >= next_frame * (1.0 - 1e-12)
+                ckpt_due = state.time >= next_ckpt * (1.0 - 1e-12)
+                if frame_due or ckpt_due:
+                    data = state.to_numpy()
+                    if frame_due:
+                        self._write_frame(data)
+                        next_frame = _next_multiple(state.time, run.frame_interval)
+                    if ckpt_due:
+                        self._checkpoint(data)
+                        next_ckpt = _next_multiple(state.time, run.checkpoint_every)
+                if progress is not None:
+                    elapsed = wallclock.perf_counter() - self.clock0
+                    rate = (state.step - first_step) / elapsed if elapsed > 0 else 0.0
+                    progress(Progress(state.time, run.end_time, state.step, dt, rate))
+        except InstabilityError as e:
+            status, message = "unstable", str(e)
+            instability = {
+                "particle": e.particle,
+                "position": None if e.position is None else [float(c) for c in np.ravel(e.position)],
+                "reason": e.reason,
+                "time": state.time,
+                "step": state.step,
+            }
+
+        final = None
+        if status != "unstable":  # the last state: a frame and a checkpoint unless just written
+            final = state.to_numpy()
+            if self.series.frames[-1][0] < state.time:
+                self._write_frame(final)
+            if self.checkpoint_at[1] != state.step:
+                self._checkpoint(final)
+        wall = wallclock.perf_counter() - self.clock0
+        summary = self._summary(status, message, state, state.step - first_step, wall, instability,
+                                restarted_from, final)
+        write_json(self.out / SUMMARY, summary)
+        return RunResult(status, state.time, state.step, self.out, message, summary)
+
+    # ------------------------------------------------------------------ summary
+    def _summary(
+        self, status: str, message: str, state: State, steps_here: int, wall: float,
+        instability: dict[str, Any] | None, restarted_from: float | None, final: dict[str, Any] | None,
+    ) -> dict[str, Any]:
+        cfg = self.problem.config
+        names = self.problem.material_names
+        n = self.problem.particles.n
+        out: dict[str, Any] = {
+            "scenario": self.scenario.name,
+            "status": status,
+            "message": message,
+            "time": state.time,
+            "end_time": self.scenario.run.end_time,
+            "steps": state.step,
+            "particles": n,
+            "wall_s": self.wall_before + wall,
+            "steps_per_s": steps_here / wall if wall > 0 else None,
+            "particle_steps_per_s": n * steps_here / wall if wall > 0 else None,
+            "restarted_from": restarted_from,
+            "device": cfg.device,
+            "precision": cfg.precision,
+            "threads": cfg.n_threads,
+            "shape_function": cfg.shape,
+            "transfer": cfg.transfer,
+            "materials": {name: m.kind for name, m in zip(names, self.materials)},
+            "frames": len(self.series.frames),
+            "pvd": self.series.pvd.name,
+            "checkpoint": {"file": CHECKPOINT, "time": self.checkpoint_at[0], "step": self.checkpoint_at[1]},
+            "instability": instability,
+            "version": __version__,
+        }
+        if final is not None:
+            diag = self.solver.diagnostics(state)
+            diag["reaction"] = {names[i]: f for i, f in diag.get("reaction", {}).items()}
+            out["diagnostics"] = diag
+            codes = np.asarray(final.get("failure", []))  # -1: the particle's law has no failure model
+            if np.any(codes >= 0):
+                labels = ("intact", "matrix", "fiber", "both")
+                out["failure_counts"] = {label: int(np.sum(codes == k)) for k, label in enumerate(labels)}
+        return out

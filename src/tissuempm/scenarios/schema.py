@@ -1,0 +1,450 @@
+"""The TOML scenario file, validated with pydantic (see ``docs/scenarios.md``).
+
+Every value with a unit is stored in SI. In the file it may be written as an SI
+number or as a string with a unit (``"50 mm"``, ``"150 m/s"``, ``"2.1 kPa"``),
+converted by :func:`tissuempm.scenarios.units.parse_quantity`. Unknown keys and
+values out of range raise :class:`ScenarioError`, whose message names each bad
+key by its path in the file (``solver.cfl``, ``body[0].shape.radius``) with the
+valid range.
+
+Sections: ``[solver]``, ``[grid]``, ``[materials.<name>]``, ``[[body]]``,
+``[[boundary]]``, ``[[fixed]]`` and ``[run]``.
+"""
+
+import math
+import tomllib
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from tissuempm.scenarios import geometry
+from tissuempm.scenarios.units import UnitError, parse_quantity
+
+
+class ScenarioError(ValueError):
+    """A scenario file is unreadable, has unknown keys or holds values out of range."""
+
+
+def quantity(unit: str) -> Any:
+    """A float field accepting SI numbers or strings with units of the dimension of ``unit``."""
+    return Annotated[float, BeforeValidator(lambda v: parse_quantity(v, unit))]
+
+
+Length = quantity("m")
+Time = quantity("s")
+Speed = quantity("m/s")
+Acceleration = quantity("m/s^2")
+Angle = quantity("rad")
+Density = quantity("kg/m^3")
+Number = quantity("1")
+Point = tuple[Length, Length, Length]
+Direction = tuple[Number, Number, Number]
+Velocity = tuple[Speed, Speed, Speed]
+Positive = Annotated[float, Field(gt=0.0)]
+
+
+class Section(BaseModel):
+    """Base of all sections: unknown keys are errors, values are frozen."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+
+
+# ---------------------------------------------------------------------------- [solver]
+
+
+class SolverSection(Section):
+    """``[solver]``: the explicit MPM settings (:class:`tissuempm.mpm.SolverConfig`)."""
+
+    shape: Literal["gimp", "linear", "bspline"] = "gimp"
+    transfer: Literal["usl", "musl", "usf"] = "musl"
+    flip: Annotated[float, Field(ge=0.0, le=1.0)] = 0.99
+    cfl: Annotated[Number, Field(gt=0.0, le=1.0)] = 0.3
+    precision: Literal["float64", "float32"] = "float64"
+    threads: Annotated[int, Field(ge=1, le=1024)] | None = None
+    gravity: tuple[Acceleration, Acceleration, Acceleration] = (0.0, 0.0, 0.0)
+    damping: Annotated[quantity("1/s"), Field(ge=0.0)] = 0.0
+    dt_max: Annotated[Time, Field(gt=0.0)] | None = None
+
+
+# ---------------------------------------------------------------------------- [grid], [[boundary]]
+
+
+class GridSection(Section):
+    """``[grid]``: the background grid spans ``lower`` to ``upper`` in cells of ``cell_size``."""
+
+    lower: Point
+    upper: Point
+    cell_size: Annotated[Length, Field(gt=0.0)]
+
+    @model_validator(mode="after")
+    def _extent(self) -> "GridSection":
+        for k, (a, b) in enumerate(zip(self.lower, self.upper)):
+            if not b > a:
+                raise ValueError(f"grid.upper[{k}] = {b:g} m must exceed grid.lower[{k}] = {a:g} m")
+        if math.prod(self.cells) > 200_000_000:
+            raise ValueError(f"grid has {math.prod(self.cells)} cells (> 2e8): increase grid.cell_size")
+        return self
+
+    @property
+    def cells(self) -> tuple[int, int, int]:
+        """Number of cells per direction (the extent rounded up to whole cells)."""
+        return tuple(  # type: ignore[return-value]
+            max(1, math.ceil((b - a) / self.cell_size - 1e-9)) for a, b in zip(self.lower, self.upper)
+        )
+
+
+class BoundarySection(Section):
+    """``[[boundary]]``: a condition on one face plane of the grid.
+
+    ``fixed``: v = 0; ``slip``: normal velocity = ``velocity[axis]`` (0: symmetry
+    plane; non-zero: moving frictionless wall), tangential free; ``velocity``:
+    v = ``velocity`` (all components).
+    """
+
+    axis: Literal["x", "y", "z"]
+    side: Literal["lower", "upper"]
+    kind: Literal["fixed", "slip", "velocity"]
+    velocity: Velocity = (0.0, 0.0, 0.0)
+
+    @model_validator(mode="after")
+    def _no_velocity_when_fixed(self) -> "BoundarySection":
+        if self.kind == "fixed" and any(v != 0.0 for v in self.velocity):
+            raise ValueError("a 'fixed' face takes no velocity: use kind = 'velocity' or 'slip'")
+        return self
+
+    @property
+    def axis_index(self) -> int:
+        return "xyz".index(self.axis)
+
+
+# ---------------------------------------------------------------------------- shapes and fibers
+
+
+class BoxSpec(Section):
+    type: Literal["box"]
+    lower: Point
+    upper: Point
+
+    @model_validator(mode="after")
+    def _extent(self) -> "BoxSpec":
+        for k, (a, b) in enumerate(zip(self.lower, self.upper)):
+            if not b > a:
+                raise ValueError(f"upper[{k}] = {b:g} m must exceed lower[{k}] = {a:g} m")
+        return self
+
+    def build(self) -> geometry.Shape:
+        return geometry.Box(self.lower, self.upper)
+
+
+class SphereSpec(Section):
+    type: Literal["sphere"]
+    center: Point
+    radius: Annotated[Length, Field(gt=0.0)]
+
+    def build(self) -> geometry.Shape:
+        return geometry.Sphere(self.center, self.radius)
+
+
+class CylinderSpec(Section):
+    type: Literal["cylinder"]
+    start: Point
+    end: Point
+    radius: Annotated[Length, Field(gt=0.0)]
+
+    @model_validator(mode="after")
+    def _axis(self) -> "CylinderSpec":
+        if self.start == self.end:
+            raise ValueError("start and end must differ")
+        return self
+
+    def build(self) -> geometry.Shape:
+        return geometry.Cylinder(self.start, self.end, self.radius)
+
+
+class UnionSpec(Section):
+    type: Literal["union"]
+    parts: Annotated[list["ShapeSpec"], Field(min_length=1)]
+
+    def build(self) -> geometry.Shape:
+        return geometry.Union(tuple(p.build() for p in self.parts))
+
+
+class DifferenceSpec(Section):
+    type: Literal["difference"]
+    base: "ShapeSpec"
+    subtract: Annotated[list["ShapeSpec"], Field(min_length=1)]
+
+    def build(self) -> geometry.Shape:
+        return geometry.Difference(self.base.build(), tuple(p.build() for p in self.subtract))
+
+
+ShapeSpec = Annotated[
+    BoxSpec | SphereSpec | CylinderSpec | UnionSpec | DifferenceSpec, Field(discriminator="type")
+]
+UnionSpec.model_rebuild()
+DifferenceSpec.model_rebuild()
+
+
+def _nonzero(v: tuple[float, float, float]) -> tuple[float, float, float]:
+    if not any(c != 0.0 for c in v):
+        raise ValueError("must be a non-zero vector")
+    return v
+
+
+class UniformFiberSpec(Section):
+    type: Literal["uniform"]
+    direction: Direction = (1.0, 0.0, 0.0)
+
+    _check = field_validator("direction")(_nonzero)
+
+    def build(self) -> geometry.FiberField:
+        return geometry.UniformFiber(self.direction)
+
+
+class RotatingFiberSpec(Section):
+    type: Literal["rotating"]
+    direction: Direction
+    axis: Direction
+    start: Length
+    end: Length
+    angle: Angle
+
+    _check = field_validator("direction", "axis")(_nonzero)
+
+    @model_validator(mode="after")
+    def _span(self) -> "RotatingFiberSpec":
+        if self.end == self.start:
+            raise ValueError("end must differ from start")
+        return self
+
+    def build(self) -> geometry.FiberField:
+        return geometry.RotatingFiber(self.direction, self.axis, self.start, self.end, self.angle)
+
+
+FiberSpec = Annotated[UniformFiberSpec | RotatingFiberSpec, Field(discriminator="type")]
+_TAGS = {"box", "sphere", "cylinder", "union", "difference", "uniform", "rotating"}
+
+
+# ---------------------------------------------------------------------------- [[body]], [[fixed]]
+
+
+class BodySection(Section):
+    """``[[body]]``: a region filled with particles of one material.
+
+    Where bodies overlap, the earlier body keeps the particles.
+    """
+
+    name: str | None = None
+    material: str
+    shape: ShapeSpec
+    particles_per_cell: Annotated[int, Field(ge=1, le=8)] = 2
+    velocity: Velocity = (0.0, 0.0, 0.0)
+    fiber: FiberSpec | None = None
+
+
+class FixedSection(Section):
+    """``[[fixed]]``: particles inside ``region`` keep zero velocity (e.g. the clamped edges of a slab)."""
+
+    region: ShapeSpec
+    bodies: list[str] | None = None
+
+
+# ---------------------------------------------------------------------------- [run]
+
+
+class RunSection(Section):
+    """``[run]``: duration, output and checkpoint intervals."""
+
+    end_time: Annotated[Time, Field(gt=0.0)]
+    output_interval: Annotated[Time, Field(gt=0.0)] | None = None
+    checkpoint_interval: Annotated[Time, Field(gt=0.0)] | None = None
+    max_steps: Annotated[int, Field(ge=1)] | None = None
+    output: str | None = None
+
+    @property
+    def frame_interval(self) -> float:
+        """Interval [s] between VTU frames (default: 20 frames over the run)."""
+        return self.output_interval if self.output_interval is not None else self.end_time / 20.0
+
+    @property
+    def checkpoint_every(self) -> float:
+        """Interval [s] between checkpoints (default: 10 over the run)."""
+        return self.checkpoint_interval if self.checkpoint_interval is not None else self.end_time / 10.0
+
+
+# ---------------------------------------------------------------------------- materials
+
+
+def _convert_material(name: str, data: dict[str, Any]) -> Any:
+    """Build the material of ``[materials.<name>]`` (a Material or RigidMaterial).
+
+    ``kind = "rigid"`` gives a rigid driver (``velocity``, ``density``);
+    ``library = "<tissue>"`` starts from the tissue library, other keys override
+    its parameters; otherwise ``kind`` names a law of :mod:`tissuempm.materials`.
+    """
+    from tissuempm.materials import ParameterError
+
+    where = f"materials.{name}"
+    try:
+        if data.get("kind") == "rigid":
+            return RigidSpec.model_validate({k: v for k, v in data.items() if k != "kind"}).build()
+        return _law(data)
+    except ValidationError as e:
+        raise ValueError("; ".join(f"{where}.{_path(err['loc'])}: {err['msg']}" for err in e.errors())) from None
+    except (ParameterError, KeyError, UnitError, TypeError) as e:
+        msg = e.args[0] if e.args else str(e)
+        raise ValueError(f"{where}: {msg}") from None
+
+
+def _law(data: dict[str, Any]) -> Any:
+    """A constitutive law from ``{"kind": ...}`` or ``{"library": ...}`` plus parameters (units converted)."""
+    from tissuempm.materials import ParameterError, from_dict, get_material_class
+
+    rest = dict(data)
+    if "library" in rest:
+        from tissuempm import library
+
+        base = library.get(rest.pop("library")).material
+        if "kind" in rest and rest.pop("kind") != base.kind:
+            raise ParameterError(f"kind does not match the library material's kind {base.kind!r}")
+        return base.replace(**_material_values(type(base), rest)) if rest else base
+    if "kind" not in rest:
+        raise ParameterError("needs 'kind' (a material law or 'rigid') or 'library' (a tissue name)")
+    kind = rest.pop("kind")
+    return from_dict({"kind": kind, **_material_values(get_material_class(kind), rest)})
+
+
+def _material_values(cls: type, data: dict[str, Any]) -> dict[str, Any]:
+    """Convert quantity strings of ``data`` with the units declared by the law's parameters."""
+    import dataclasses
+
+    units = {f.name: f.metadata.get("unit") for f in dataclasses.fields(cls)}
+    out: dict[str, Any] = {}
+    for key, value in data.items():
+        unit = units.get(key)
+        if isinstance(value, dict) and ("kind" in value or "library" in value):
+            value = _law(value)  # a composed law's inner law (e.g. the base of a failure layer)
+        elif unit is not None:
+            try:
+                if isinstance(value, list):
+                    value = [parse_quantity(v, unit) for v in value]
+                elif isinstance(value, (str, int, float)) and not isinstance(value, bool):
+                    value = parse_quantity(value, unit)
+            except UnitError as e:
+                raise UnitError(f"{key}: {e}") from None
+        out[key] = value
+    return out
+
+
+class RigidSpec(Section):
+    """``kind = "rigid"``: a driver moving at a prescribed velocity, perfectly bonded to the tissue."""
+
+    velocity: Velocity = (0.0, 0.0, 0.0)
+    density: Annotated[Density, Field(gt=0.0)] = 7800.0
+
+    def build(self) -> Any:
+        from tissuempm.mpm import RigidMaterial
+
+        return RigidMaterial(velocity=self.velocity, density=self.density)
+
+
+# ---------------------------------------------------------------------------- the scenario
+
+
+class Scenario(Section):
+    """A complete scenario file."""
+
+    name: str = "scenario"
+    description: str = ""
+    solver: SolverSection = SolverSection()
+    grid: GridSection
+    materials: Annotated[dict[str, dict[str, Any]], Field(min_length=1)]
+    bodies: Annotated[list[BodySection], Field(alias="body", min_length=1)]
+    boundaries: Annotated[list[BoundarySection], Field(alias="boundary")] = []
+    fixed: list[FixedSection] = []
+    run: RunSection
+
+    @field_validator("materials")
+    @classmethod
+    def _materials(cls, value: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+        for name, data in value.items():
+            _convert_material(name, data)  # raises naming the key
+        return value
+
+    @model_validator(mode="after")
+    def _references(self) -> "Scenario":
+        names = list(self.materials)
+        for i, body in enumerate(self.bodies):
+            if body.material not in self.materials:
+                raise ValueError(f"body[{i}].material = {body.material!r} is not defined: choose one of {names}")
+        body_names = [b.name for b in self.bodies if b.name]
+        if len(set(body_names)) != len(body_names):
+            raise ValueError(f"body names must be unique, got {body_names}")
+        for i, fix in enumerate(self.fixed):
+            for b in fix.bodies or []:
+                if b not in body_names:
+                    raise ValueError(f"fixed[{i}].bodies: {b!r} is not a body name: choose from {body_names}")
+        seen = set()
+        for i, bc in enumerate(self.boundaries):
+            if (bc.axis, bc.side) in seen:
+                raise ValueError(f"boundary[{i}]: a second condition on the {bc.side} {bc.axis} face")
+            seen.add((bc.axis, bc.side))
+        return self
+
+    def build_materials(self) -> list[Any]:
+        """Material objects in the order of ``[materials]`` (material id = position)."""
+        return [_convert_material(name, data) for name, data in self.materials.items()]
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> "Scenario":
+        """Validate a parsed scenario; raise :class:`ScenarioError` naming each bad key."""
+        try:
+            return cls.model_validate(data)
+        except ValidationError as e:
+            raise ScenarioError(format_errors(e)) from None
+
+
+def _path(loc: tuple[Any, ...]) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        elif part in _TAGS or str(part).startswith("function-"):
+            continue
+        else:
+            out += f".{part}" if out else str(part)
+    return out
+
+
+def format_errors(error: ValidationError) -> str:
+    """One line per error: ``key.path: message (got value)``."""
+    lines = []
+    for err in error.errors():
+        path = _path(err["loc"]) or "scenario"
+        msg = err["msg"].removeprefix("Value error, ")
+        if err["type"] == "extra_forbidden":
+            msg = "unknown key"
+        got = err.get("input")
+        shown = "" if isinstance(got, (dict, list)) or err["type"] == "missing" else f" (got {got!r})"
+        if msg.startswith((f"{path}.", f"{path}[")):  # the validator already named the key
+            lines.append(f"{msg}{shown}")
+        else:
+            lines.append(f"{path}: {msg}{shown}")
+    n = len(lines)
+    return f"{n} error{'s' if n > 1 else ''} in scenario:\n  " + "\n  ".join(lines)
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a TOML scenario file."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise ScenarioError(f"scenario file {path} not found") from None
+    except tomllib.TOMLDecodeError as e:
+        raise ScenarioError(f"{path} is not valid TOML: {e}") from None
+    try:
+        return Scenario.from_dict(data)
+    except ScenarioError as e:
+        raise ScenarioError(f"{path}: {e}") from None

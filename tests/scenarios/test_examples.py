@@ -1,0 +1,71 @@
+"""Every example scenario validates and seeds; the single-particle example matches the driver."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tissuempm.scenarios.build import build
+from tissuempm.scenarios.schema import load_scenario
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+FILES = sorted(EXAMPLES.glob("*.toml"))
+
+
+def test_required_examples_present():
+    names = {f.stem for f in FILES}
+    assert {"single_particle", "tissue_block", "shear_test", "slab_penetration"} <= names
+
+
+@pytest.mark.parametrize("path", FILES, ids=[f.stem for f in FILES])
+def test_example_builds(path):
+    sc = load_scenario(path)
+    prob = build(sc)
+    grid = prob.model.grid
+    lo, hi = np.array(grid.origin), np.array(grid.upper)
+    assert np.all(prob.particles.x > lo) and np.all(prob.particles.x < hi)
+    assert len(np.unique(prob.body)) == len(sc.bodies)  # every body holds particles
+
+
+def test_slab_geometry():
+    # seed 000: 50 x 10 x 50 mm slab, 9 mm fragment, fiber turning 180 deg through the thickness
+    prob = build(load_scenario(EXAMPLES / "slab_penetration.toml"))
+    slab = prob.body == 1
+    vol = prob.particles.volume[slab].sum()
+    assert vol == pytest.approx(50e-3 * 10e-3 * 50e-3, rel=1e-12)
+    frag = prob.body == 0
+    # lattice volume of the 9 mm ball on 1 mm sub-cells: within 10 % of 4/3 pi r^3
+    assert prob.particles.volume[frag].sum() == pytest.approx(4 / 3 * np.pi * 4.5e-3**3, rel=0.1)
+    y, a0 = prob.particles.x[slab, 1], prob.particles.fiber[slab]
+    assert np.allclose(np.abs(a0[:, 1]), 0.0)  # in the slab plane
+    ang = np.unwrap(np.arctan2(-a0[:, 2], a0[:, 0]))  # clockwise about +y: x -> +z ... sign check below
+    top, bottom = y.min(), y.max()
+    assert np.allclose(a0[y == top], a0[y == top][0])
+    assert np.abs(ang[y == bottom][0] - ang[y == top][0]) == pytest.approx(np.pi * (bottom - top) / 10e-3)
+    # the slab's side edges (one cell wide) are fixed, nothing else
+    x, z = prob.particles.x[:, 0], prob.particles.x[:, 2]
+    edge = slab & ((x < 2e-3) | (x > 48e-3) | (z < 2e-3) | (z > 48e-3))
+    assert np.array_equal(prob.particles.fixed, edge)
+
+
+def test_single_particle_example_follows_driver(tmp_path):
+    """Seed 000 single-particle test (first 5 % strain, about 1000 steps): the MPM axial stress
+    agrees with the homogeneous driver at the particle's own stretch. The remaining difference
+    is the dynamic lateral stress (about 4 Pa at the example's 1 1/s), so the tolerance is
+    1 % at 5 % strain, where the axial stress is 860 Pa."""
+    from tissuempm.materials.drivers import stress_strain
+    from tissuempm.scenarios.runner import Runner
+
+    sc = load_scenario(EXAMPLES / "single_particle.toml")
+    sc = sc.model_copy(update={"run": sc.run.model_copy(update={"end_time": 0.0488, "output_interval": 0.0244})})
+    runner = Runner(sc, tmp_path)
+    result = runner.run()
+    assert result.status == "completed"
+    from tissuempm.io import read_checkpoint
+
+    data, _ = read_checkpoint(tmp_path / "checkpoint.h5")
+    F, s = data["F"][0], data["stress"][0]
+    assert F[0, 0] == pytest.approx(np.exp(1e-3 * result.time / 1e-3), rel=1e-6)  # lambda = exp(v t / h)
+    ref = stress_strain(runner.materials[0], "uniaxial", [F[0, 0]])
+    assert s[0, 0] == pytest.approx(ref.cauchy_axial[0], rel=1e-2)
+    assert abs(s[1, 1]) < 10.0 and abs(s[2, 2]) < 10.0  # lateral faces traction free (Pa)

@@ -1,0 +1,126 @@
+"""Scenario validation: units converted at the boundary, every bad key named in the error."""
+
+import copy
+import math
+
+import pytest
+
+from tissuempm.scenarios.schema import Scenario, ScenarioError, load_scenario
+
+BASE = {
+    "name": "block",
+    "solver": {"shape": "gimp", "cfl": 0.3},
+    "grid": {"lower": [0, 0, 0], "upper": ["10 mm", "10 mm", "10 mm"], "cell_size": "1 mm"},
+    "materials": {"tissue": {"kind": "neo_hookean", "C10": "1.05 kPa", "K": "100 kPa", "density": "1.1 g/cm^3"}},
+    "body": [
+        {
+            "material": "tissue",
+            "shape": {"type": "box", "lower": ["2 mm", "2 mm", "2 mm"], "upper": ["8 mm", "8 mm", "8 mm"]},
+            "velocity": [0, 0, "-0.1 m/s"],
+            "fiber": {"type": "rotating", "direction": [1, 0, 0], "axis": [0, 0, 1],
+                      "start": "2 mm", "end": "8 mm", "angle": "180 deg"},
+        }
+    ],
+    "boundary": [{"axis": "z", "side": "lower", "kind": "fixed"}],
+    "run": {"end_time": "2 ms", "output_interval": "0.5 ms"},
+}
+
+
+def with_change(path: str, value):
+    """BASE with the value at a dotted path (list indices as numbers) replaced; None deletes."""
+    data = copy.deepcopy(BASE)
+    keys = [int(k) if k.isdigit() else k for k in path.split(".")]
+    node = data
+    for k in keys[:-1]:
+        node = node[k]
+    if value is None:
+        del node[keys[-1]]
+    else:
+        node[keys[-1]] = value
+    return data
+
+
+def test_valid_scenario_in_si():
+    sc = Scenario.from_dict(BASE)
+    assert sc.grid.cell_size == pytest.approx(1e-3)
+    assert sc.grid.cells == (10, 10, 10)
+    assert sc.bodies[0].velocity == pytest.approx((0, 0, -0.1))
+    assert sc.bodies[0].fiber.angle == pytest.approx(math.pi)
+    assert sc.run.end_time == pytest.approx(2e-3) and sc.run.frame_interval == pytest.approx(5e-4)
+    assert sc.run.checkpoint_every == pytest.approx(2e-4)  # default: 10 per run
+    (mat,) = sc.build_materials()
+    assert mat.C10 == pytest.approx(1050.0) and mat.K == pytest.approx(1e5) and mat.density == pytest.approx(1100.0)
+    assert sc.solver.transfer == "musl" and sc.solver.flip == 0.99  # defaults
+
+
+def test_grid_cells_round_up():
+    sc = Scenario.from_dict(with_change("grid.upper", ["10.5 mm", "10 mm", "10 mm"]))
+    assert sc.grid.cells == (11, 10, 10)
+
+
+def test_csg_shapes_nest():
+    shape = {
+        "type": "difference",
+        "base": {"type": "union", "parts": [
+            {"type": "box", "lower": [0, 0, 0], "upper": ["5 mm", "5 mm", "5 mm"]},
+            {"type": "cylinder", "start": [0, 0, 0], "end": [0, 0, "5 mm"], "radius": "3 mm"}]},
+        "subtract": [{"type": "sphere", "center": ["2 mm", "2 mm", "2 mm"], "radius": "1 mm"}],
+    }
+    sc = Scenario.from_dict(with_change("body.0.shape", shape))
+    geo = sc.bodies[0].shape.build()
+    assert geo.contains([[4e-3, 4e-3, 4e-3], [2e-3, 2e-3, 2e-3]]).tolist() == [True, False]
+
+
+@pytest.mark.parametrize(
+    ("path", "value", "key", "text"),
+    [
+        ("solver.cfl", 5, "solver.cfl", "less than or equal to 1"),
+        ("solver.cfl", 0, "solver.cfl", "greater than 0"),
+        ("solver.flip", 1.5, "solver.flip", "less than or equal to 1"),
+        ("solver.shape", "quadratic", "solver.shape", "'gimp', 'linear' or 'bspline'"),
+        ("solver.colour", "red", "solver.colour", "unknown key"),
+        ("grid.cell_size", "-1 mm", "grid.cell_size", "greater than 0"),
+        ("grid.cell_size", "1 ms", "grid.cell_size", "wrong unit"),
+        ("grid.upper", [0, 1, 1], "grid", "must exceed grid.lower[0]"),
+        ("body.0.shape.radius", 1, "body[0].shape.radius", "unknown key"),
+        ("body.0.particles_per_cell", 0, "body[0].particles_per_cell", "greater than or equal to 1"),
+        ("body.0.particles_per_cell", 9, "body[0].particles_per_cell", "less than or equal to 8"),
+        ("body.0.material", "bone", "body[0].material", "not defined"),
+        ("body.0.fiber.angle", "3 mm", "body[0].fiber.angle", "wrong unit"),
+        ("body.0.fiber.axis", [0, 0, 0], "body[0].fiber.axis", "non-zero"),
+        ("body.0.shape.type", "cone", "body[0].shape", "does not match any of the expected tags"),
+        ("boundary.0.kind", "glued", "boundary[0].kind", "'fixed', 'slip' or 'velocity'"),
+        ("boundary.0.velocity", [1, 0, 0], "boundary[0]", "takes no velocity"),
+        ("run.end_time", None, "run.end_time", "Field required"),
+        ("run.output_interval", "-1 s", "run.output_interval", "greater than 0"),
+        ("materials.tissue.C10", -5, "materials.tissue", "C10"),
+        ("materials.tissue.C99", 5, "materials.tissue", "unknown parameter(s) C99"),
+        ("materials.tissue.K", "100 m", "materials.tissue", "K: "),
+        ("materials.tissue.kind", "unobtainium", "materials.tissue", "unknown material kind"),
+    ],
+)
+def test_errors_name_the_key(path, value, key, text):
+    with pytest.raises(ScenarioError) as info:
+        Scenario.from_dict(with_change(path, value))
+    msg = str(info.value)
+    assert key in msg and text in msg, msg
+
+
+def test_unknown_top_level_key_and_all_errors_reported():
+    data = with_change("solver.cfl", 7)
+    data["outputs"] = {}
+    with pytest.raises(ScenarioError, match=r"2 errors") as info:
+        Scenario.from_dict(data)
+    assert "outputs: unknown key" in str(info.value) and "solver.cfl" in str(info.value)
+
+
+def test_load_toml(tmp_path):
+    f = tmp_path / "s.toml"
+    f.write_text('name = "x"\n[solver]\ncfl = 0.2\n')
+    with pytest.raises(ScenarioError, match="grid: Field required"):
+        load_scenario(f)
+    f.write_text("name = \n")
+    with pytest.raises(ScenarioError, match="not valid TOML"):
+        load_scenario(f)
+    with pytest.raises(ScenarioError, match="not found"):
+        load_scenario(tmp_path / "missing.toml")
