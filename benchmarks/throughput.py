@@ -1,0 +1,107 @@
+"""Throughput of the explicit MPM solver in particle-steps per second.
+
+Cases: ``neo_hookean`` (a block of NeoHookean tissue, free flight with an initial velocity) and
+``weiss_failure`` (the same block with TwoSurfaceFailure(Weiss) when available, else Weiss);
+float64 and float32; one thread and all threads; uGIMP, MUSL (the defaults).
+
+Usage::
+
+    python benchmarks/throughput.py [--cells 24] [--ppc 2] [--steps 20] [--json] [--quick]
+
+``--json`` prints one JSON record per case with ``case``, ``precision``, ``threads``,
+``shape_function``, ``particles``, ``particle_steps_per_s`` and the machine description.
+Timings exclude kernel compilation (a warm-up step runs first).
+"""
+
+import argparse
+import json
+import os
+import platform
+import time
+
+import numpy as np
+
+from tissuempm.materials import NeoHookean, Weiss
+from tissuempm.mpm import ExplicitSolver, Grid, Model, ParticleData, SolverConfig
+
+
+def machine() -> dict:
+    cpu = platform.processor()
+    try:
+        with open("/proc/cpuinfo") as f:
+            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(), "platform": platform.platform()}
+
+
+def material(case: str):
+    if case == "neo_hookean":
+        return NeoHookean(C10=5e3, K=1e5, density=1000.0)
+    try:
+        from tissuempm.materials import TwoSurfaceFailure
+
+        return TwoSurfaceFailure(base=Weiss.example(), gamma_max=0.25, eps_max=0.4)
+    except Exception:  # failure layer not available or different signature
+        return Weiss.example()
+
+
+def run_case(case, precision, threads, cells, ppc, steps, shape="gimp") -> dict:
+    h = 1e-3
+    n = cells
+    grid = Grid(origin=(0, 0, 0), cell_size=h, shape=(n + 4, n + 4, n + 4))
+    xs = (np.arange(n * ppc) + 0.5) * h / ppc + 2 * h
+    X = np.stack(np.meshgrid(xs, xs, xs, indexing="ij"), -1).reshape(-1, 3)
+    rng = np.random.default_rng(0)
+    v = 0.05 * rng.standard_normal(X.shape)
+    pd = ParticleData(x=X, volume=(h / ppc) ** 3, size=h / ppc, material=0, velocity=v)
+    solver = ExplicitSolver(Model(grid=grid, materials=[material(case)]),
+                            SolverConfig(shape=shape, precision=precision, threads=threads))  # fmt: skip
+    st = solver.initial_state(pd)
+    solver.step(st)  # warm-up (compilation)
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        solver.step(st)
+    wall = time.perf_counter() - t0
+    solver.close()
+    return {
+        "case": case,
+        "precision": precision,
+        "threads": threads,
+        "shape_function": shape,
+        "transfer": "musl",
+        "particles": len(X),
+        "steps": steps,
+        "wall_s": wall,
+        "particle_steps_per_s": len(X) * steps / wall,
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--cells", type=int, default=24, help="cells per side of the block (default 24)")
+    ap.add_argument("--ppc", type=int, default=2, help="particles per cell per direction (default 2)")
+    ap.add_argument("--steps", type=int, default=20, help="timed steps per case (default 20)")
+    ap.add_argument("--quick", action="store_true", help="small block, 5 steps (smoke test)")
+    ap.add_argument("--json", action="store_true", help="one JSON record per case")
+    args = ap.parse_args()
+    if args.quick:
+        args.cells, args.steps = 8, 5
+    mach = machine()
+    all_threads = os.cpu_count() or 1
+    if not args.json:
+        print(f"machine: {mach}")
+    for case in ("neo_hookean", "weiss_failure"):
+        for precision in ("float64", "float32"):
+            for threads in sorted({1, all_threads}):
+                rec = run_case(case, precision, threads, args.cells, args.ppc, args.steps)
+                rec["machine"] = mach
+                if args.json:
+                    print(json.dumps(rec))
+                else:
+                    print(f"{case:14s} {precision} threads={threads} particles={rec['particles']} "
+                          f"{rec['particle_steps_per_s'] / 1e6:6.2f} M particle-steps/s")  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()

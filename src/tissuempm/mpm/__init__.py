@@ -1,0 +1,28 @@
+"""Explicit material point method (uGIMP / linear / B-spline; USL, MUSL, USF) in Warp.
+
+Public surface::
+
+    from tissuempm.mpm import (SolverConfig, Control, Grid, GridBoundary, ParticleData,
+                               RigidMaterial, Model, State, ExplicitSolver, InstabilityError)
+
+See ``docs/mpm.md`` for the algorithm and ``docs/verification.md`` for the tests.
+"""
+
+from tissuempm.mpm.config import Control, SolverConfig
+from tissuempm.mpm.errors import InstabilityError
+from tissuempm.mpm.model import Grid, GridBoundary, Model, ParticleData, RigidMaterial
+from tissuempm.mpm.solver import ExplicitSolver
+from tissuempm.mpm.state import State
+
+__all__ = [
+    "Control",
+    "ExplicitSolver",
+    "Grid",
+    "GridBoundary",
+    "InstabilityError",
+    "Model",
+    "ParticleData",
+    "RigidMaterial",
+    "SolverConfig",
+    "State",
+]

@@ -1,0 +1,146 @@
+"""Solver options (:class:`SolverConfig`) and time-varying inputs (:class:`Control`).
+
+Options are fixed for the life of a solver; inputs that may change from one
+step to the next (a ramped gravity, a driver velocity, a manufactured body
+force) go into a :class:`Control` passed to :meth:`ExplicitSolver.step`.
+"""
+
+import math
+import os
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+from tissuempm.precision import check_precision
+
+ShapeFunction = Literal["linear", "gimp", "bspline"]
+"""Grid basis: ``"linear"`` (tent, 2 nodes per axis), ``"gimp"`` (uniform GIMP,
+Bardenhagen & Kober 2004, 3 nodes per axis) or ``"bspline"`` (quadratic B-spline,
+3 nodes per axis)."""
+Transfer = Literal["usl", "musl", "usf"]
+"""Update scheme: update stress last, modified update stress last (velocity
+re-projected before the stress update; Sulsky et al. 1994) or update stress first."""
+SHAPES: tuple[str, ...] = ("linear", "gimp", "bspline")
+TRANSFERS: tuple[str, ...] = ("usl", "musl", "usf")
+DEVICES: tuple[str, ...] = ("cpu", "cuda")
+
+
+def _vec3(name: str, value: Any) -> tuple[float, float, float]:
+    a = np.asarray(value, dtype=float)
+    if a.shape != (3,) or not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} = {value!r}: must be three finite numbers")
+    return (float(a[0]), float(a[1]), float(a[2]))
+
+
+@dataclass(frozen=True, kw_only=True)
+class SolverConfig:
+    """Options of the explicit MPM solver (all SI units).
+
+    Attributes
+    ----------
+    shape
+        Shape functions, ``"linear"``, ``"gimp"`` (uGIMP, seed 000's choice; default) or ``"bspline"``.
+    transfer
+        ``"usl"``, ``"musl"`` (default) or ``"usf"``.
+    flip
+        FLIP fraction of the particle velocity update in [0, 1]: 1 is pure FLIP
+        (v_p += sum w_ip dv_i), 0 is pure PIC (v_p = sum w_ip v_i). Default 0.99.
+    cfl
+        Courant number in (0, 1]: dt = cfl h / max_p(c_p + |v_p|) (Ionescu et al. 2006 eqs 9-11).
+    precision
+        ``"float64"`` (default) or ``"float32"`` for particle and grid arrays.
+    device
+        ``"cpu"`` (all cores, chunked) or ``"cuda"`` (same kernels with atomics, no chunking).
+    threads
+        CPU threads launching kernels; ``None`` uses all cores.
+    chunks
+        Number of particle chunks with private scatter grids on the CPU; ``None`` uses
+        ``threads`` (fewer for small problems). Results are bit-reproducible for a given
+        chunk count whatever the thread count or scheduling.
+    gravity
+        Body acceleration g [m/s^2] applied to every deformable particle.
+    damping
+        Mass-proportional damping coefficient alpha [1/s]: grid acceleration f/m + g - alpha v.
+    dt_max
+        Upper bound on the time step [s] (``None``: the CFL value only).
+    dt_min_fraction
+        A CFL time step below this fraction of the first stable step raises
+        :class:`InstabilityError` (the time step collapsed).
+    sort_interval
+        Particles are sorted by cell every this many steps (0: never) for memory locality.
+    min_node_mass_fraction
+        Nodes whose mass is below this fraction of the smallest particle mass are treated as empty.
+    """
+
+    shape: ShapeFunction = "gimp"
+    transfer: Transfer = "musl"
+    flip: float = 0.99
+    cfl: float = 0.3
+    precision: str = "float64"
+    device: str = "cpu"
+    threads: int | None = None
+    chunks: int | None = None
+    gravity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    damping: float = 0.0
+    dt_max: float | None = None
+    dt_min_fraction: float = 1.0e-4
+    sort_interval: int = 20
+    min_node_mass_fraction: float = 1.0e-9
+
+    def __post_init__(self) -> None:
+        if self.shape not in SHAPES:
+            raise ValueError(f"shape = {self.shape!r} is not valid: choose one of {', '.join(SHAPES)}")
+        if self.transfer not in TRANSFERS:
+            raise ValueError(f"transfer = {self.transfer!r} is not valid: choose one of {', '.join(TRANSFERS)}")
+        if not (0.0 <= self.flip <= 1.0):
+            raise ValueError(f"flip = {self.flip!r} is out of range: valid range is [0, 1]")
+        if not (0.0 < self.cfl <= 1.0):
+            raise ValueError(f"cfl = {self.cfl!r} is out of range: valid range is (0, 1]")
+        check_precision(self.precision)
+        if self.device.split(":")[0] not in DEVICES:
+            raise ValueError(f"device = {self.device!r} is not valid: choose cpu or cuda (or cuda:N)")
+        for name in ("threads", "chunks"):
+            v = getattr(self, name)
+            if v is not None and (not isinstance(v, int) or v < 1):
+                raise ValueError(f"{name} = {v!r}: must be a positive integer or None")
+        object.__setattr__(self, "gravity", _vec3("gravity", self.gravity))
+        if not (math.isfinite(self.damping) and self.damping >= 0.0):
+            raise ValueError(f"damping = {self.damping!r} is out of range: valid range is >= 0 1/s")
+        if self.dt_max is not None and not (math.isfinite(self.dt_max) and self.dt_max > 0.0):
+            raise ValueError(f"dt_max = {self.dt_max!r}: must be > 0 s or None")
+        if not (0.0 <= self.dt_min_fraction < 1.0):
+            raise ValueError(f"dt_min_fraction = {self.dt_min_fraction!r}: valid range is [0, 1)")
+        if not isinstance(self.sort_interval, int) or self.sort_interval < 0:
+            raise ValueError(f"sort_interval = {self.sort_interval!r}: must be an integer >= 0")
+        if not (0.0 <= self.min_node_mass_fraction < 1.0):
+            raise ValueError(f"min_node_mass_fraction = {self.min_node_mass_fraction!r}: valid range is [0, 1)")
+
+    @property
+    def n_threads(self) -> int:
+        """Threads used on the CPU (``threads`` or the number of cores)."""
+        return self.threads or os.cpu_count() or 1
+
+
+@dataclass(kw_only=True)
+class Control:
+    """Inputs that may change between steps (Newton's Model/State/Control split).
+
+    Attributes
+    ----------
+    gravity
+        Overrides :attr:`SolverConfig.gravity` [m/s^2] for this step (e.g. a ramp).
+    rigid_velocity
+        New prescribed velocity [m/s] per material index of a :class:`RigidMaterial`.
+    boundary_velocity
+        New velocity [m/s] per index into :attr:`Model.boundaries` ("velocity" and "slip" kinds).
+    body_acceleration
+        Extra body acceleration per particle [m/s^2], NumPy (n, 3) in *storage order*
+        (the order of :attr:`State.x`; see :meth:`State.order`) or a Warp array; e.g. a
+        manufactured-solution source term.
+    """
+
+    gravity: tuple[float, float, float] | None = None
+    rigid_velocity: dict[int, tuple[float, float, float]] = field(default_factory=dict)
+    boundary_velocity: dict[int, tuple[float, float, float]] = field(default_factory=dict)
+    body_acceleration: Any = None

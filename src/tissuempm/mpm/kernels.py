@@ -1,0 +1,543 @@
+"""Warp kernels of the explicit MPM step (kernels and documented constants only).
+
+Built per (precision, shape function) by :func:`transfer_kernels` and per
+(material law, precision) by :func:`material_kernels`. Every particle kernel works
+on the particle range ``[begin, begin + dim)`` (one chunk) and scatters into row
+``c`` of the chunk grid buffers; on CUDA there is one chunk and the adds are atomic.
+
+Grid storage: node ``(i, j, k)`` (``i = -GHOST .. nx + GHOST``) is stored at the flat
+index ``((i + GHOST) * NY + j + GHOST) * NZ + k + GHOST`` with ``NY = ny + 1 + 2 GHOST``
+and ``NZ = nz + 1 + 2 GHOST``.
+"""
+
+import functools
+from types import SimpleNamespace
+from typing import Any
+
+import warp as wp
+
+from tissuempm.mpm.model import GHOST
+from tissuempm.mpm.shape_functions import STENCIL, axis_weights
+from tissuempm.precision import WarpTypes
+
+# scatter / reduce field flags
+MASS = wp.constant(1)
+"""Scatter/reduce nodal mass and the constraint (rigid / fixed) mass and momentum."""
+MOMENTUM = wp.constant(2)
+"""Scatter/reduce nodal momentum m v."""
+FORCE = wp.constant(4)
+"""Scatter/reduce nodal force: internal -V sigma grad S plus particle body forces."""
+BODY = wp.constant(8)
+"""Include the per-particle body acceleration array in the force."""
+# grid modes
+VELOCITY = wp.constant(0)
+"""Grid pass that only forms the constrained nodal velocity (USF gradient, MUSL re-projection)."""
+UPDATE = wp.constant(1)
+"""Grid pass that integrates the nodal momentum equation."""
+# particle gather flags
+MOVE = wp.constant(1)
+"""Gather: particle velocity (FLIP/PIC), PIC velocity for the position update, reaction share."""
+GRADIENT = wp.constant(2)
+"""Gather: velocity gradient L and F <- (I + dt L) F."""
+POSITION = wp.constant(4)
+"""Gather: x <- x + dt v_pic (after MOVE, possibly in a later pass: MUSL re-projects at the old x)."""
+# boundary kinds (per grid face, face = 2 axis + side)
+BC_NONE = wp.constant(0)
+BC_FIXED = wp.constant(1)
+BC_SLIP = wp.constant(2)
+BC_VELOCITY = wp.constant(3)
+
+
+@functools.cache
+def transfer_kernels(t: WarpTypes, shape: str) -> SimpleNamespace:
+    """Particle-grid transfer and grid kernels for types ``t`` and ``shape``.
+
+    ``zero``, ``p2g``, ``grid`` and ``g2p`` are functions of the flags (and mode) returning
+    kernels specialised at compile time (``wp.static``), so no flag is tested per node.
+    """
+    return SimpleNamespace(
+        bounds=_bounds(t, shape),
+        zero=lambda flags: _zero(t, flags),
+        p2g=lambda flags: _p2g(t, shape, flags),
+        grid=lambda flags, mode: _grid(t, flags, mode),
+        g2p=lambda flags: _g2p(t, shape, flags),
+        rigid_speed=_rigid_speed(t),
+        NP=STENCIL[shape],
+    )
+
+
+@functools.cache
+def _helpers(t: WarpTypes, shape: str) -> SimpleNamespace:
+    s, vec3 = t.scalar, t.vec3
+    NP = STENCIL[shape]
+    G = GHOST
+    weights = axis_weights(t, shape)
+
+    @wp.func
+    def stencil(xp: vec3, size: vec3, origin: vec3, inv_h: s, dims: wp.vec3i):
+        """First stencil node (storage (i, j, k)) and per-axis weights and derivatives [1/m]."""
+        xi = (xp - origin) * inv_h
+        l = size * (s(0.5) * inv_h)
+        bx, wx, dx = weights(xi[0], l[0])
+        by, wy, dy = weights(xi[1], l[1])
+        bz, wz, dz = weights(xi[2], l[2])
+        # clamp so that a particle that has just left the grid cannot write out of bounds
+        bx = wp.clamp(bx, -G, dims[0] + G + 1 - NP) + G
+        by = wp.clamp(by, -G, dims[1] + G + 1 - NP) + G
+        bz = wp.clamp(bz, -G, dims[2] + G + 1 - NP) + G
+        return wp.vec3i(bx, by, bz), wx, wy, wz, dx * inv_h, dy * inv_h, dz * inv_h
+
+    @wp.func
+    def strides(dims: wp.vec3i):
+        """Flat-index strides (x, y) of the node storage (z stride 1)."""
+        nz = dims[2] + 1 + 2 * G
+        return (dims[1] + 1 + 2 * G) * nz, nz
+
+    return SimpleNamespace(stencil=stencil, strides=strides, NP=NP)
+
+
+@functools.cache
+def _bounds(t: WarpTypes, shape: str) -> Any:
+    s, vec3 = t.scalar, t.vec3
+    h = _helpers(t, shape)
+    stencil, strides, NP = h.stencil, h.strides, h.NP
+
+    @wp.kernel(module="unique")
+    def bounds(
+        x: wp.array(dtype=vec3),
+        size: wp.array(dtype=vec3),
+        origin: vec3,
+        inv_h: s,
+        dims: wp.vec3i,
+        begin: int,
+        c: int,
+        lo: wp.array(dtype=int),
+        hi: wp.array(dtype=int),
+    ):
+        """Range of flat node indices touched by the chunk (its scatter window)."""
+        p = begin + wp.tid()
+        b, wx, wy, wz, dx, dy, dz = stencil(x[p], size[p], origin, inv_h, dims)
+        sx, sy = strides(dims)
+        nb = b[0] * sx + b[1] * sy + b[2]
+        wp.atomic_min(lo, c, nb)
+        wp.atomic_max(hi, c, nb + (NP - 1) * (sx + sy + 1))
+
+    return bounds
+
+
+@functools.cache
+def _zero(t: WarpTypes, flags: int) -> Any:
+    s, vec3 = t.scalar, t.vec3
+
+    @wp.kernel(module="unique")
+    def zero(
+        start: int,
+        b_m: wp.array(dtype=s),
+        b_mom: wp.array(dtype=vec3),
+        b_f: wp.array(dtype=vec3),
+        b_cm: wp.array(dtype=s),
+        b_cmom: wp.array(dtype=vec3),
+    ):
+        """Clear the fields ``flags`` of one chunk buffer on nodes ``start + tid``."""
+        n = start + wp.tid()
+        if wp.static(flags & MASS):
+            b_m[n] = s(0.0)
+            b_cm[n] = s(0.0)
+            b_cmom[n] = vec3()
+        if wp.static(flags & MOMENTUM):
+            b_mom[n] = vec3()
+        if wp.static(flags & FORCE):
+            b_f[n] = vec3()
+
+    return zero
+
+
+@functools.cache
+def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
+    s, vec3, mat33 = t.scalar, t.vec3, t.mat33
+    h = _helpers(t, shape)
+    stencil, strides, NP = h.stencil, h.strides, h.NP
+
+    @wp.kernel(module="unique")
+    def p2g(
+        x: wp.array(dtype=vec3),
+        v: wp.array(dtype=vec3),
+        mass: wp.array(dtype=s),
+        vol0: wp.array(dtype=s),
+        size: wp.array(dtype=vec3),
+        F: wp.array(dtype=mat33),
+        stress: wp.array(dtype=mat33),
+        material: wp.array(dtype=wp.int32),
+        fixed: wp.array(dtype=wp.int32),
+        mat_rigid: wp.array(dtype=wp.int32),
+        rigid_vel: wp.array(dtype=vec3),
+        body: wp.array(dtype=vec3),
+        origin: vec3,
+        inv_h: s,
+        dims: wp.vec3i,
+        begin: int,
+        b_m: wp.array(dtype=s),
+        b_mom: wp.array(dtype=vec3),
+        b_f: wp.array(dtype=vec3),
+        b_cm: wp.array(dtype=s),
+        b_cmom: wp.array(dtype=vec3),
+    ):
+        """Particle to grid: m_i = sum S m_p, (mv)_i = sum S m_p v_p,
+        f_i = -sum V_p sigma_p grad S + sum S m_p b_p; constraint mass/momentum of rigid and fixed particles."""
+        p = begin + wp.tid()
+        mat = material[p]
+        b, wx, wy, wz, dx, dy, dz = stencil(x[p], size[p], origin, inv_h, dims)
+        sx, sy = strides(dims)
+        nb = b[0] * sx + b[1] * sy + b[2]
+        m = mass[p]
+        if mat_rigid[mat] != 0:
+            if wp.static(flags & MASS):
+                mvr = m * rigid_vel[mat]
+                for i in range(NP):
+                    for j in range(NP):
+                        for k in range(NP):
+                            n = nb + i * sx + j * sy + k
+                            w = wx[i] * wy[j] * wz[k]
+                            b_cm[n] += w * m
+                            b_cmom[n] += w * mvr
+            return
+        mv = m * v[p]
+        Vs = mat33()
+        bf = vec3()
+        if wp.static(flags & FORCE):
+            Vs = (-vol0[p] * wp.determinant(F[p])) * stress[p]
+        if wp.static(flags & BODY):
+            bf = m * body[p]
+        fx = fixed[p] != 0
+        for i in range(NP):
+            for j in range(NP):
+                for k in range(NP):
+                    n = nb + i * sx + j * sy + k
+                    wyz = wy[j] * wz[k]
+                    w = wx[i] * wyz
+                    if wp.static(flags & MASS):
+                        b_m[n] += w * m
+                        if fx:
+                            b_cm[n] += w * m
+                    if wp.static(flags & MOMENTUM):
+                        b_mom[n] += w * mv
+                    if wp.static(flags & FORCE):
+                        grad = vec3(dx[i] * wyz, wx[i] * dy[j] * wz[k], wx[i] * wy[j] * dz[k])
+                        b_f[n] += Vs * grad + w * bf
+
+    return p2g
+
+
+@functools.cache
+def _grid(t: WarpTypes, flags: int, mode: int) -> Any:
+    s, vec3 = t.scalar, t.vec3
+    G = GHOST
+
+    @wp.func
+    def apply_bc(
+        v: vec3, ijk: wp.vec3i, dims: wp.vec3i, kinds: wp.array(dtype=wp.int32), vels: wp.array(dtype=vec3)
+    ):
+        out = v
+        for face in range(6):
+            kind = kinds[face]
+            if kind != BC_NONE:
+                a = face // 2
+                on = False
+                if face % 2 == 0:
+                    on = ijk[a] <= 0
+                else:
+                    on = ijk[a] >= dims[a]
+                if on:
+                    if kind == BC_FIXED:
+                        out = vec3()
+                    elif kind == BC_VELOCITY:
+                        out = vels[face]
+                    else:
+                        out[a] = vels[face][a]
+        return out
+
+    @wp.kernel(module="unique")
+    def grid(
+        start: int,
+        n_chunks: int,
+        lo: wp.array(dtype=int),
+        hi: wp.array(dtype=int),
+        b_m: wp.array2d(dtype=s),
+        b_mom: wp.array2d(dtype=vec3),
+        b_f: wp.array2d(dtype=vec3),
+        b_cm: wp.array2d(dtype=s),
+        b_cmom: wp.array2d(dtype=vec3),
+        g_m: wp.array(dtype=s),
+        g_mom: wp.array(dtype=vec3),
+        g_f: wp.array(dtype=vec3),
+        g_cm: wp.array(dtype=s),
+        g_cmom: wp.array(dtype=vec3),
+        v_a: wp.array(dtype=vec3),
+        v_b: wp.array(dtype=vec3),
+        react: wp.array(dtype=vec3),
+        dt: s,
+        gravity: vec3,
+        damping: s,
+        min_mass: s,
+        dims: wp.vec3i,
+        bc_kind: wp.array(dtype=wp.int32),
+        bc_vel: wp.array(dtype=vec3),
+    ):
+        """Reduce the chunk buffers in chunk order (fields ``flags``), then solve the node.
+
+        mode VELOCITY: v_a = constrained velocity (constraints and BCs applied).
+        mode UPDATE:   v_a = mom/m (unconstrained, for the FLIP increment),
+                       v_b = v_a + dt (f/m + g - damping v_a), then constraints and BCs,
+                       react = force on the constraint (rigid/fixed) from the rest of the model:
+                       R = f + m g - damping m v_a - m (v_c - v_a)/dt.
+        """
+        n = start + wp.tid()
+        if wp.static(flags & MASS):
+            sm = s(0.0)
+            scm = s(0.0)
+            scmom = vec3()
+            for c in range(n_chunks):
+                if n >= lo[c] and n <= hi[c]:
+                    sm += b_m[c, n]
+                    scm += b_cm[c, n]
+                    scmom += b_cmom[c, n]
+            g_m[n] = sm
+            g_cm[n] = scm
+            g_cmom[n] = scmom
+        if wp.static(flags & MOMENTUM):
+            smom = vec3()
+            for c in range(n_chunks):
+                if n >= lo[c] and n <= hi[c]:
+                    smom += b_mom[c, n]
+            g_mom[n] = smom
+        if wp.static(flags & FORCE):
+            sf = vec3()
+            for c in range(n_chunks):
+                if n >= lo[c] and n <= hi[c]:
+                    sf += b_f[c, n]
+            g_f[n] = sf
+        NZ = dims[2] + 1 + 2 * G
+        NY = dims[1] + 1 + 2 * G
+        ijk = wp.vec3i(n // (NY * NZ) - G, (n // NZ) % NY - G, n % NZ - G)
+        m = g_m[n]
+        vo = vec3()
+        if m > min_mass:
+            vo = g_mom[n] / m
+        cm = g_cm[n]
+        if wp.static(mode == VELOCITY):
+            vv = vo
+            if cm > s(0.0):
+                vv = g_cmom[n] / cm
+            v_a[n] = apply_bc(vv, ijk, dims, bc_kind, bc_vel)
+        else:
+            vn = vo
+            r = vec3()
+            if m > min_mass:
+                vn = vo + dt * (g_f[n] / m + gravity - damping * vo)
+            if cm > s(0.0):
+                vc = g_cmom[n] / cm
+                if m > min_mass:
+                    r = g_f[n] + m * gravity - (damping * m) * vo - (m / dt) * (vc - vo)
+                vn = vc
+            v_a[n] = vo
+            v_b[n] = apply_bc(vn, ijk, dims, bc_kind, bc_vel)
+            react[n] = r
+
+    return grid
+
+
+@functools.cache
+def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
+    s, vec3, mat33 = t.scalar, t.vec3, t.mat33
+    h = _helpers(t, shape)
+    stencil, strides, NP = h.stencil, h.strides, h.NP
+
+    @wp.kernel(module="unique")
+    def g2p(
+        x: wp.array(dtype=vec3),
+        v: wp.array(dtype=vec3),
+        vpic_p: wp.array(dtype=vec3),
+        F: wp.array(dtype=mat33),
+        L: wp.array(dtype=mat33),
+        mass: wp.array(dtype=s),
+        size: wp.array(dtype=vec3),
+        material: wp.array(dtype=wp.int32),
+        fixed: wp.array(dtype=wp.int32),
+        mat_rigid: wp.array(dtype=wp.int32),
+        rigid_vel: wp.array(dtype=vec3),
+        preact: wp.array(dtype=vec3),
+        v_old: wp.array(dtype=vec3),
+        v_new: wp.array(dtype=vec3),
+        v_grad: wp.array(dtype=vec3),
+        react: wp.array(dtype=vec3),
+        g_cm: wp.array(dtype=s),
+        origin: vec3,
+        inv_h: s,
+        dims: wp.vec3i,
+        lower: vec3,
+        upper: vec3,
+        begin: int,
+        c: int,
+        dt: s,
+        flip: s,
+        bad: wp.array(dtype=int),
+    ):
+        """Grid to particle (``flags`` of MOVE, GRADIENT, POSITION; see the module constants).
+
+        MOVE:     v_p <- flip (v_p + sum S (v_i^new - v_i^old)) + (1 - flip) sum S v_i^new,
+                  v_pic = sum S v_i^new, reaction share of constrained particles
+                  sum S m_p / m_i^c R_i.
+        GRADIENT: L_p = sum v_i (x) grad S (v_i = ``v_grad``), F <- (I + dt L) F, check J > 0.
+        POSITION: x <- x + dt v_pic, check that the particle is inside the grid.
+        Rigid particles move with their material's velocity and keep F; fixed ones stay put.
+        """
+        p = begin + wp.tid()
+        mat = material[p]
+        xp = x[p]
+        rigid = mat_rigid[mat] != 0
+        constrained = rigid or fixed[p] != 0
+        if wp.static(flags & (MOVE | GRADIENT)):
+            b, wx, wy, wz, dx, dy, dz = stencil(xp, size[p], origin, inv_h, dims)
+            sx, sy = strides(dims)
+            nb = b[0] * sx + b[1] * sy + b[2]
+            vpic = vec3()
+            dv = vec3()
+            rs = vec3()
+            Lp = mat33()
+            m = mass[p]
+            for i in range(NP):
+                for j in range(NP):
+                    for k in range(NP):
+                        n = nb + i * sx + j * sy + k
+                        wyz = wy[j] * wz[k]
+                        w = wx[i] * wyz
+                        if wp.static(flags & MOVE):
+                            vn = v_new[n]
+                            vpic += w * vn
+                            dv += w * (vn - v_old[n])
+                            if constrained:
+                                cm = g_cm[n]
+                                if cm > s(0.0):
+                                    rs += (w * m / cm) * react[n]
+                        if wp.static(flags & GRADIENT):
+                            grad = vec3(dx[i] * wyz, wx[i] * dy[j] * wz[k], wx[i] * wy[j] * dz[k])
+                            Lp += wp.outer(v_grad[n], grad)
+            if wp.static(flags & MOVE):
+                preact[p] = rs
+                if rigid:
+                    vpic = rigid_vel[mat]
+                    v[p] = vpic
+                elif fixed[p] != 0:
+                    vpic = vec3()
+                    v[p] = vpic
+                else:
+                    v[p] = flip * (v[p] + dv) + (s(1.0) - flip) * vpic
+                vpic_p[p] = vpic
+            if wp.static(flags & GRADIENT):
+                if rigid:
+                    Lp = mat33()
+                L[p] = Lp
+                Fn = (wp.identity(n=3, dtype=s) + dt * Lp) * F[p]
+                F[p] = Fn
+                if not (wp.determinant(Fn) > s(0.0)):
+                    wp.atomic_min(bad, c, p)
+        if wp.static(flags & POSITION):
+            xp = xp + dt * vpic_p[p]
+            x[p] = xp
+            inside = True
+            for a in range(3):
+                if not (xp[a] >= lower[a] and xp[a] <= upper[a]):
+                    inside = False
+            if not inside:
+                wp.atomic_min(bad, c, p)
+
+    return g2p
+
+
+@functools.cache
+def _rigid_speed(t: WarpTypes) -> Any:
+    s, vec3 = t.scalar, t.vec3
+
+    @wp.kernel(module="unique")
+    def rigid_speed(
+        v: wp.array(dtype=vec3),
+        material: wp.array(dtype=wp.int32),
+        mat_rigid: wp.array(dtype=wp.int32),
+        begin: int,
+        c: int,
+        out: wp.array(dtype=s),
+    ):
+        """Signal speed |v| of rigid particles (no wave speed)."""
+        p = begin + wp.tid()
+        if mat_rigid[material[p]] != 0:
+            wp.atomic_max(out, c, wp.length(v[p]))
+
+    return rigid_speed
+
+
+@functools.cache
+def material_kernels(cls: type, t: WarpTypes) -> SimpleNamespace:
+    """Stress-update and signal-speed kernels of one law (``cls``) for types ``t``.
+
+    Each kernel skips particles whose material index differs from ``mat_id``, so
+    several laws share one velocity field.
+    """
+    s, vec3, mat33 = t.scalar, t.vec3, t.mat33
+    stress_fn = cls.stress_function(t.precision)
+    moduli_fn = cls.moduli_function(t.precision)
+
+    @wp.kernel(module="unique")
+    def stress(
+        mat_id: int,
+        prm: wp.array(dtype=s),
+        F: wp.array(dtype=mat33),
+        L: wp.array(dtype=mat33),
+        fiber: wp.array(dtype=vec3),
+        s_in: wp.array2d(dtype=s),
+        s_out: wp.array2d(dtype=s),
+        material: wp.array(dtype=wp.int32),
+        sigma: wp.array(dtype=mat33),
+        vol0: wp.array(dtype=s),
+        work: wp.array(dtype=s),
+        dt: s,
+        begin: int,
+        c: int,
+        bad: wp.array(dtype=int),
+    ):
+        """sigma_p = law(F, L, a0, history); internal work += V (sigma_old + sigma_new)/2 : D dt."""
+        p = begin + wp.tid()
+        if material[p] != mat_id:
+            return
+        Fp = F[p]
+        Lp = L[p]
+        sig = stress_fn(Fp, Lp, fiber[p], prm, s_in, s_out, p, dt)
+        D = s(0.5) * (Lp + wp.transpose(Lp))
+        work[p] = work[p] + s(0.5) * wp.ddot(sigma[p] + sig, D) * vol0[p] * wp.determinant(Fp) * dt
+        sigma[p] = sig
+        if not wp.isfinite(wp.ddot(sig, sig)):
+            wp.atomic_min(bad, c, p)
+
+    @wp.kernel(module="unique")
+    def speed(
+        mat_id: int,
+        prm: wp.array(dtype=s),
+        F: wp.array(dtype=mat33),
+        fiber: wp.array(dtype=vec3),
+        s_in: wp.array2d(dtype=s),
+        v: wp.array(dtype=vec3),
+        material: wp.array(dtype=wp.int32),
+        begin: int,
+        c: int,
+        out: wp.array(dtype=s),
+    ):
+        """Signal speed c + |v| with c = sqrt((K + 4G/3) / rho), rho = rho0 / J (Ionescu et al. 2006 eq. 9)."""
+        p = begin + wp.tid()
+        if material[p] != mat_id:
+            return
+        Fp = F[p]
+        K, Gm = moduli_fn(Fp, fiber[p], prm, s_in, p)
+        J = wp.determinant(Fp)
+        c2 = (K + s(4.0) / s(3.0) * Gm) * J / prm[0]
+        wp.atomic_max(out, c, wp.sqrt(wp.max(c2, s(0.0))) + wp.length(v[p]))
+
+    return SimpleNamespace(stress=stress, speed=speed)

@@ -1,0 +1,261 @@
+"""Static description of an MPM problem: grid, boundaries, materials and particles (NumPy, validated).
+
+Conventions: SI units; the grid is a regular Cartesian box of ``shape = (nx, ny, nz)``
+cells of edge ``cell_size`` starting at ``origin``; its nodes are ``(nx+1, ny+1, nz+1)``
+plus one ghost layer on every side (used by the GIMP and B-spline stencils of
+particles in boundary cells). Particles must stay inside the box
+``[origin, origin + shape * cell_size]``.
+"""
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+from tissuempm.materials.base import Material
+from tissuempm.mpm.config import _vec3
+
+GHOST = 1
+"""Ghost node layers on each side of the grid."""
+
+BoundaryKind = Literal["fixed", "slip", "velocity"]
+BOUNDARY_KINDS: tuple[str, ...] = ("fixed", "slip", "velocity")
+
+
+@dataclass(frozen=True)
+class Grid:
+    """Regular background grid.
+
+    Attributes
+    ----------
+    origin
+        Position of node (0, 0, 0) [m].
+    cell_size
+        Cell edge h [m] (cubic cells).
+    shape
+        Number of cells (nx, ny, nz).
+    """
+
+    origin: tuple[float, float, float]
+    cell_size: float
+    shape: tuple[int, int, int]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "origin", _vec3("Grid.origin", self.origin))
+        if not (isinstance(self.cell_size, (int, float)) and math.isfinite(self.cell_size) and self.cell_size > 0):
+            raise ValueError(f"Grid.cell_size = {self.cell_size!r}: must be > 0 m")
+        shp = tuple(int(n) for n in self.shape)
+        if len(shp) != 3 or any(n < 1 for n in shp) or any(int(a) != a for a in self.shape):
+            raise ValueError(f"Grid.shape = {self.shape!r}: must be three integers >= 1 (cells per axis)")
+        object.__setattr__(self, "shape", shp)
+        object.__setattr__(self, "cell_size", float(self.cell_size))
+
+    @property
+    def node_shape(self) -> tuple[int, int, int]:
+        """Nodes per axis including ghost layers: ``n + 1 + 2 GHOST``."""
+        return tuple(n + 1 + 2 * GHOST for n in self.shape)  # type: ignore[return-value]
+
+    @property
+    def n_nodes(self) -> int:
+        """Number of stored nodes (ghosts included)."""
+        nx, ny, nz = self.node_shape
+        return nx * ny * nz
+
+    @property
+    def upper(self) -> tuple[float, float, float]:
+        """Upper corner ``origin + shape * cell_size`` [m]."""
+        return tuple(o + n * self.cell_size for o, n in zip(self.origin, self.shape))  # type: ignore[return-value]
+
+    def node_positions(self) -> np.ndarray:
+        """Positions of the stored nodes [m], shape ``node_shape + (3,)``."""
+        axes = [self.origin[a] + (np.arange(self.node_shape[a]) - GHOST) * self.cell_size for a in range(3)]
+        return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
+
+
+@dataclass(frozen=True)
+class GridBoundary:
+    """Velocity condition on the nodes of one grid face (and the ghost layer beyond it).
+
+    Attributes
+    ----------
+    axis
+        Normal axis of the face: 0 (x), 1 (y) or 2 (z).
+    side
+        ``"lower"`` (node index 0) or ``"upper"`` (node index n).
+    kind
+        ``"fixed"``: v = 0; ``"slip"``: normal velocity = ``velocity[axis]`` (0 by default: a
+        symmetry plane; non-zero: a moving frictionless wall), tangential free;
+        ``"velocity"``: v = ``velocity`` (all components).
+    velocity
+        Prescribed velocity [m/s] for ``"velocity"`` and ``"slip"``.
+    """
+
+    axis: int
+    side: Literal["lower", "upper"]
+    kind: BoundaryKind
+    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        if self.axis not in (0, 1, 2):
+            raise ValueError(f"GridBoundary.axis = {self.axis!r}: must be 0, 1 or 2")
+        if self.side not in ("lower", "upper"):
+            raise ValueError(f"GridBoundary.side = {self.side!r}: must be 'lower' or 'upper'")
+        if self.kind not in BOUNDARY_KINDS:
+            raise ValueError(f"GridBoundary.kind = {self.kind!r}: choose one of {', '.join(BOUNDARY_KINDS)}")
+        object.__setattr__(self, "velocity", _vec3("GridBoundary.velocity", self.velocity))
+        if self.kind == "fixed" and any(self.velocity):
+            raise ValueError("GridBoundary: kind 'fixed' takes no velocity (use 'velocity')")
+
+
+@dataclass(frozen=True, kw_only=True)
+class RigidMaterial:
+    """A rigid body moved with a prescribed velocity ("perfectly bonded" driver).
+
+    Its particles translate with ``velocity``; every grid node they touch takes that
+    velocity, so material sharing those nodes sticks to the driver. The solver
+    reports the reaction force the rest of the model exerts on it
+    (:meth:`ExplicitSolver.diagnostics`).
+
+    Attributes
+    ----------
+    velocity
+        Prescribed velocity [m/s] (change it per step with :class:`Control`).
+    density
+        Mass density [kg/m^3] (only used in the mass diagnostics).
+    """
+
+    kind = "rigid"
+    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    density: float = 1000.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "velocity", _vec3("RigidMaterial.velocity", self.velocity))
+        if not (math.isfinite(self.density) and self.density > 0):
+            raise ValueError(f"RigidMaterial.density = {self.density!r}: must be > 0 kg/m^3")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": "rigid", "velocity": list(self.velocity), "density": self.density}
+
+
+def _array(name: str, value: Any, shape: tuple[int, ...], dtype: Any = float) -> np.ndarray:
+    a = np.array(value, dtype=dtype, copy=True)
+    if a.shape != shape:
+        try:
+            a = np.broadcast_to(a, shape).copy()
+        except ValueError:
+            raise ValueError(f"ParticleData.{name}: shape {a.shape} does not fit {shape}") from None
+    if a.dtype.kind == "f" and not np.all(np.isfinite(a)):
+        raise ValueError(f"ParticleData.{name}: contains non-finite values")
+    return a
+
+
+@dataclass
+class ParticleData:
+    """Initial particle data (NumPy), validated on construction.
+
+    Attributes
+    ----------
+    x
+        Positions [m], (n, 3).
+    volume
+        Reference volumes [m^3], (n,), > 0.
+    size
+        Reference particle edge lengths [m], (n, 3) (uGIMP domain 2 l_p; typically h / ppc).
+    material
+        Index into :attr:`Model.materials`, (n,) int.
+    velocity
+        Initial velocities [m/s], (n, 3); default 0.
+    fiber
+        Reference fiber directions (normalised here), (n, 3); default (1, 0, 0).
+    fixed
+        Particles held fixed (zero velocity; the nodes they touch are fixed), (n,) bool.
+    """
+
+    x: np.ndarray
+    volume: np.ndarray
+    size: np.ndarray
+    material: np.ndarray
+    velocity: np.ndarray | None = None
+    fiber: np.ndarray | None = None
+    fixed: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        x = np.array(self.x, dtype=float, copy=True)
+        if x.ndim != 2 or x.shape[1] != 3 or x.shape[0] < 1:
+            raise ValueError(f"ParticleData.x: shape {x.shape} must be (n, 3) with n >= 1")
+        if not np.all(np.isfinite(x)):
+            raise ValueError("ParticleData.x: contains non-finite values")
+        n = x.shape[0]
+        self.x = x
+        self.volume = _array("volume", self.volume, (n,))
+        if np.any(self.volume <= 0):
+            raise ValueError("ParticleData.volume: must be > 0 m^3")
+        self.size = _array("size", self.size, (n, 3))
+        if np.any(self.size <= 0):
+            raise ValueError("ParticleData.size: must be > 0 m")
+        mat = np.asarray(self.material)
+        if mat.dtype.kind not in "iu" and not (mat.dtype.kind == "f" and np.all(mat == np.rint(mat))):
+            raise ValueError("ParticleData.material: must be integers")
+        self.material = _array("material", mat, (n,), np.int32)
+        if np.any(self.material < 0):
+            raise ValueError("ParticleData.material: indices must be >= 0")
+        self.velocity = _array("velocity", 0.0 if self.velocity is None else self.velocity, (n, 3))
+        fib = _array("fiber", (1.0, 0.0, 0.0) if self.fiber is None else self.fiber, (n, 3))
+        norm = np.linalg.norm(fib, axis=1)
+        if np.any(norm == 0):
+            raise ValueError("ParticleData.fiber: zero-length fiber direction")
+        self.fiber = fib / norm[:, None]
+        self.fixed = _array("fixed", False if self.fixed is None else self.fixed, (n,), bool)
+
+    @property
+    def n(self) -> int:
+        """Number of particles."""
+        return self.x.shape[0]
+
+
+@dataclass
+class Model:
+    """Static part of the problem (Newton's Model): grid, materials and grid boundaries.
+
+    Attributes
+    ----------
+    grid
+        Background grid.
+    materials
+        Constitutive laws (:class:`~tissuempm.materials.base.Material`) and rigid drivers
+        (:class:`RigidMaterial`); ``ParticleData.material`` indexes this list.
+    boundaries
+        Velocity conditions on grid faces.
+    """
+
+    grid: Grid
+    materials: list[Any]
+    boundaries: list[GridBoundary] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.grid, Grid):
+            raise TypeError("Model.grid must be a Grid")
+        self.materials = list(self.materials)
+        if not self.materials:
+            raise ValueError("Model.materials: at least one material is required")
+        for i, m in enumerate(self.materials):
+            if not isinstance(m, (Material, RigidMaterial)):
+                raise TypeError(f"Model.materials[{i}] = {m!r}: must be a Material or RigidMaterial")
+        self.boundaries = list(self.boundaries)
+        for b in self.boundaries:
+            if not isinstance(b, GridBoundary):
+                raise TypeError(f"Model.boundaries: {b!r} is not a GridBoundary")
+
+    @property
+    def n_state(self) -> int:
+        """Width of the history array: the largest ``n_state`` of the laws (at least 1)."""
+        return max([1] + [m.n_state for m in self.materials if isinstance(m, Material)])
+
+    def is_rigid(self, index: int) -> bool:
+        """True when material ``index`` is a :class:`RigidMaterial`."""
+        return isinstance(self.materials[index], RigidMaterial)
+
+    def density(self, index: int) -> float:
+        """Reference density [kg/m^3] of material ``index``."""
+        return float(self.materials[index].density)

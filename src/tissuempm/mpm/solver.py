@@ -1,0 +1,529 @@
+"""Explicit MPM solver (Sulsky et al. 1994; uGIMP of Bardenhagen & Kober 2004; Ionescu et al. 2006).
+
+One step (:meth:`ExplicitSolver.step`) is a list of named phases; for MUSL::
+
+    sort            every ``sort_interval`` steps, particles sorted by cell
+    rasterize       P2G of mass, momentum, internal + body force (chunk buffers)
+    solve_grid      reduce the chunk buffers in chunk order; v_i^new = v_i + dt (f_i/m_i + g - alpha v_i);
+                    rigid/fixed constraints and grid-face conditions; reaction forces
+    gather(MOVE)    FLIP/PIC particle velocity
+    rasterize(MOM)  MUSL: re-project m_p v_p^new at the old positions, constrained v_i
+    gather(GRAD)    L_p = sum v_i (x) grad S_ip, F <- (I + dt L) F, x <- x + dt v_pic
+    constitutive    each law's stress kernel on its own particles; history buffers swapped
+    check           NaN, J <= 0, particle outside the grid -> InstabilityError
+
+USL gathers once with the updated grid velocity; USF computes L and the stress from
+the re-projected velocity before the force scatter.
+
+Parallelism (CPU): particles are split into contiguous chunks (of the cell-sorted
+order); each chunk scatters into a private grid buffer restricted to the window of
+nodes it touches, and the buffers are summed node by node in chunk order, so the
+result does not depend on thread scheduling. Warp CPU launches release the GIL, so
+one Python thread per chunk runs the chunks on all cores. On CUDA the same kernels
+run with one chunk and atomic adds.
+"""
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any, Callable
+
+import numpy as np
+import warp as wp
+
+from tissuempm.materials.base import Material
+from tissuempm.mpm import kernels as K
+from tissuempm.mpm.config import Control, SolverConfig
+from tissuempm.mpm.errors import InstabilityError
+from tissuempm.mpm.model import Model, ParticleData, RigidMaterial
+from tissuempm.mpm.state import PARTICLE_FIELDS, State, warp_array
+from tissuempm.precision import init_warp, warp_types
+
+MIN_CHUNK = 4096
+"""Smallest chunk (particles) worth its own thread and grid buffer."""
+_FACES = {("lower", a): 2 * a for a in range(3)} | {("upper", a): 2 * a + 1 for a in range(3)}
+_BC_CODE = {"fixed": 1, "slip": 2, "velocity": 3}
+
+
+class ExplicitSolver:
+    """Explicit MPM integrator of a :class:`Model` with options :class:`SolverConfig`.
+
+    Example
+    -------
+    >>> solver = ExplicitSolver(model, SolverConfig(shape="gimp"))   # doctest: +SKIP
+    >>> state = solver.initial_state(particles)                      # doctest: +SKIP
+    >>> solver.run(state, t_end=1e-3)                                # doctest: +SKIP
+    """
+
+    def __init__(self, model: Model, config: SolverConfig | None = None):
+        init_warp()
+        self.model = model
+        self.config = config or SolverConfig()
+        cfg = self.config
+        self.t = warp_types(cfg.precision)
+        self.device = cfg.device
+        self.is_cpu = cfg.device == "cpu"
+        if not self.is_cpu and not wp.is_cuda_available():
+            raise RuntimeError(f"device = {cfg.device!r}: CUDA is not available")
+        self.threads = cfg.n_threads if self.is_cpu else 1
+        self.kern = K.transfer_kernels(self.t, cfg.shape)
+        grid = model.grid
+        self.h = grid.cell_size
+        self.dims = wp.vec3i(*grid.shape)
+        self.origin = self.t.vec3(*grid.origin)
+        self.lower = self.t.vec3(*grid.origin)
+        self.upper = self.t.vec3(*grid.upper)
+        self.n_nodes = grid.n_nodes
+        # materials
+        n_mat = len(model.materials)
+        self.laws: list[tuple[int, Material, Any, wp.array]] = []
+        for i, m in enumerate(model.materials):
+            if isinstance(m, Material):
+                mk = K.material_kernels(type(m), self.t)
+                prm = wp.array(m.pack().astype(self.t.numpy), dtype=self.t.scalar, device=self.device)
+                self.laws.append((i, m, mk, prm))
+        self.mat_rigid = wp.array(
+            np.array([model.is_rigid(i) for i in range(n_mat)], dtype=np.int32), dtype=wp.int32, device=self.device
+        )
+        self._rigid_velocity = np.zeros((n_mat, 3))
+        for i, m in enumerate(model.materials):
+            if isinstance(m, RigidMaterial):
+                self._rigid_velocity[i] = m.velocity
+        self.rigid_vel = warp_array(self._rigid_velocity, "vec3", self.t, self.device)
+        # grid faces
+        kinds = np.zeros(6, dtype=np.int32)
+        self._bc_velocity = np.zeros((6, 3))
+        self._bc_face: list[int] = []
+        for b in model.boundaries:
+            f = _FACES[(b.side, b.axis)]
+            if kinds[f]:
+                raise ValueError(f"two GridBoundary entries on face axis={b.axis} side={b.side!r}")
+            kinds[f] = _BC_CODE[b.kind]
+            self._bc_velocity[f] = b.velocity
+            self._bc_face.append(f)
+        self.bc_kind = wp.array(kinds, dtype=wp.int32, device=self.device)
+        self.bc_vel = warp_array(self._bc_velocity, "vec3", self.t, self.device)
+        # global grid arrays
+        z = lambda dt: wp.zeros(self.n_nodes, dtype=dt, device=self.device)  # noqa: E731
+        s, v3 = self.t.scalar, self.t.vec3
+        self.g_m, self.g_cm = z(s), z(s)
+        self.g_mom, self.g_f, self.g_cmom = z(v3), z(v3), z(v3)
+        self.g_vold, self.g_vnew, self.g_vgrad, self.g_react = z(v3), z(v3), z(v3), z(v3)
+        self._n_buf = 0
+        self._gravity = self.t.vec3(*cfg.gravity)
+        self._body: wp.array | None = None
+        self._pool = ThreadPoolExecutor(max_workers=self.threads) if self.threads > 1 else None
+        self._loaded: set[int] = set()
+        for k in [self.kern.bounds, self.kern.rigid_speed] + [k for _, _, mk, _ in self.laws for k in (mk.stress, mk.speed)]:
+            self._ready(k)
+
+    # ------------------------------------------------------------------------------ setup
+    def _ready(self, kernel: Any) -> Any:
+        """Compile ``kernel`` once in this thread (module loading is not thread-safe); return it."""
+        if id(kernel) not in self._loaded:
+            kernel.module.load(wp.get_device(self.device))
+            self._loaded.add(id(kernel))
+        return kernel
+
+    def _ensure_buffers(self, n_chunks: int) -> None:
+        if n_chunks <= self._n_buf:
+            return
+        shape = (n_chunks, self.n_nodes)
+        s, v3 = self.t.scalar, self.t.vec3
+        z = lambda dt: wp.zeros(shape, dtype=dt, device=self.device)  # noqa: E731
+        self.b_m, self.b_cm = z(s), z(s)
+        self.b_mom, self.b_f, self.b_cmom = z(v3), z(v3), z(v3)
+        self._n_buf = n_chunks
+        # per-chunk 1-D row views (kernels index them with the flat node index only)
+        self._rows = [[b[c] for b in (self.b_m, self.b_mom, self.b_f, self.b_cm, self.b_cmom)] for c in range(n_chunks)]
+
+    def _chunks(self, n: int) -> list[tuple[int, int]]:
+        if not self.is_cpu:
+            return [(0, n)]
+        c = self.config.chunks or min(self.threads, max(1, n // MIN_CHUNK))
+        c = max(1, min(c, n))
+        edges = np.linspace(0, n, c + 1).round().astype(int)
+        return [(int(edges[i]), int(edges[i + 1])) for i in range(c)]
+
+    def initial_state(self, particles: ParticleData) -> State:
+        """State at t = 0 from validated particle data (F = I, zero stress, initial history)."""
+        pd = particles
+        n_mat = len(self.model.materials)
+        if np.any(pd.material >= n_mat):
+            bad = int(np.argmax(pd.material >= n_mat))
+            raise ValueError(f"particle {bad}: material index {pd.material[bad]} >= number of materials {n_mat}")
+        lo, hi = np.array(self.model.grid.origin), np.array(self.model.grid.upper)
+        outside = np.any((pd.x < lo) | (pd.x > hi), axis=1)
+        if np.any(outside):
+            bad = int(np.argmax(outside))
+            raise ValueError(f"particle {bad} at {pd.x[bad].tolist()} is outside the grid [{lo.tolist()}, {hi.tolist()}]")
+        if self.config.shape == "gimp" and np.any(pd.size > self.h * (1 + 1e-12)):
+            raise ValueError(f"uGIMP needs particle sizes <= the cell size {self.h:g} m (max {pd.size.max():g})")
+        n = pd.n
+        density = np.array([self.model.density(i) for i in range(n_mat)])
+        hist = np.zeros((n, self.model.n_state))
+        for k, m in enumerate(self.model.materials):
+            if isinstance(m, Material) and m.n_state:
+                hist[pd.material == k, : m.n_state] = m.initial_state()
+        eye = np.broadcast_to(np.eye(3), (n, 3, 3))
+        arrays = {
+            "x": pd.x, "x0": pd.x, "v": np.where(pd.fixed[:, None], 0.0, pd.velocity), "mass": density[pd.material] * pd.volume,
+            "volume0": pd.volume, "size": pd.size, "F": eye, "L": np.zeros((n, 3, 3)), "stress": np.zeros((n, 3, 3)),
+            "material": pd.material, "fiber": pd.fiber, "fixed": pd.fixed, "work": np.zeros(n),
+            "reaction": np.zeros((n, 3)), "vpic": np.zeros((n, 3)), "id": np.arange(n), "state": hist,
+        }  # fmt: skip
+        rigid = np.array([self.model.is_rigid(i) for i in range(n_mat)])[pd.material]
+        arrays["v"][rigid] = self._rigid_velocity[pd.material[rigid]]
+        st = self._allocate_state(arrays)
+        if self.config.sort_interval:
+            self._sort(st)
+        return st
+
+    def _allocate_state(self, arrays: dict[str, np.ndarray]) -> State:
+        st = State()
+        for name, (kind, _) in PARTICLE_FIELDS.items():
+            setattr(st, name, warp_array(arrays[name], kind, self.t, self.device))
+        hist = np.asarray(arrays["state"], dtype=float).reshape(st.n, -1)
+        if hist.shape[1] != self.model.n_state:
+            raise ValueError(f"state has {hist.shape[1]} history columns, the model needs {self.model.n_state}")
+        st.history = warp_array(hist, "2d", self.t, self.device)
+        st.history_next = warp_array(hist, "2d", self.t, self.device)
+        st.materials = self.model.materials
+        st.chunks = self._chunks(st.n)
+        self._ensure_buffers(len(st.chunks))
+        rigid = np.array([self.model.is_rigid(i) for i in range(len(self.model.materials))])
+        deform = ~rigid[np.asarray(arrays["material"])]
+        m = np.asarray(arrays["mass"], dtype=float)
+        st.min_node_mass = self.config.min_node_mass_fraction * (float(m[deform].min()) if deform.any() else 1.0)
+        st.lo = wp.zeros(len(st.chunks), dtype=int, device=self.device)
+        st.hi = wp.zeros(len(st.chunks), dtype=int, device=self.device)
+        st.bad = wp.full(len(st.chunks), st.n, dtype=int, device=self.device)
+        st.speed = wp.zeros(len(st.chunks), dtype=self.t.scalar, device=self.device)
+        return st
+
+    # ------------------------------------------------------------------------------ helpers
+    def _parallel(self, tasks: list[Callable[[], None]]) -> None:
+        if self._pool is None or len(tasks) == 1:
+            for f in tasks:
+                f()
+            return
+        for fut in [self._pool.submit(f) for f in tasks]:
+            fut.result()
+
+    def _launch(self, kernel: Any, dim: int, inputs: list[Any]) -> None:
+        if dim > 0:
+            wp.launch(kernel, dim=dim, inputs=inputs, device=self.device)
+
+    def _apply_control(self, control: Control | None) -> None:
+        g = self.config.gravity if control is None or control.gravity is None else control.gravity
+        self._gravity = self.t.vec3(*g)
+        if control is not None and control.rigid_velocity:
+            for i, vel in control.rigid_velocity.items():
+                if not self.model.is_rigid(i):
+                    raise ValueError(f"Control.rigid_velocity: material {i} is not a RigidMaterial")
+                self._rigid_velocity[i] = vel
+            self.rigid_vel.assign(self._rigid_velocity.astype(self.t.numpy))
+        if control is not None and control.boundary_velocity:
+            for i, vel in control.boundary_velocity.items():
+                if not 0 <= i < len(self._bc_face) or self.model.boundaries[i].kind == "fixed":
+                    raise ValueError(f"Control.boundary_velocity: boundary {i} is not a 'velocity' or 'slip' boundary")
+                self._bc_velocity[self._bc_face[i]] = vel
+            self.bc_vel.assign(self._bc_velocity.astype(self.t.numpy))
+        self._body = None
+        if control is not None and control.body_acceleration is not None:
+            b = control.body_acceleration
+            self._body = b if isinstance(b, wp.array) else warp_array(np.asarray(b), "vec3", self.t, self.device)
+
+    # ------------------------------------------------------------------------------ time step
+    def stable_dt(self, state: State) -> float:
+        """CFL time step dt = cfl h / max_p(c_p + |v_p|) [s] (Ionescu et al. 2006 eqs 9-11), capped by dt_max.
+
+        c_p = sqrt((K + 4G/3) / rho) from each law's instantaneous moduli, rho = rho0 / J.
+        Raises :class:`InstabilityError` when it falls below ``dt_min_fraction`` of the first value.
+        """
+        st = state
+        st.speed.zero_()
+
+        def task(c: int, b: int, e: int) -> Callable[[], None]:
+            def run() -> None:
+                for i, _, mk, prm in self.laws:
+                    self._launch(mk.speed, e - b, [i, prm, st.F, st.fiber, st.history, st.v, st.material, b, c, st.speed])
+                self._launch(self.kern.rigid_speed, e - b, [st.v, st.material, self.mat_rigid, b, c, st.speed])
+
+            return run
+
+        self._parallel([task(c, b, e) for c, (b, e) in enumerate(st.chunks)])
+        vmax = float(np.max(st.speed.numpy()))
+        dt = self.config.cfl * self.h / vmax if vmax > 0 else math.inf
+        if self.config.dt_max is not None:
+            dt = min(dt, self.config.dt_max)
+        if not math.isfinite(dt):
+            raise InstabilityError("no finite time step: nothing moves and no law has a wave speed", reason="dt collapse")
+        if st.dt_ref is None:
+            st.dt_ref = dt
+        elif not (dt >= self.config.dt_min_fraction * st.dt_ref):
+            raise InstabilityError(
+                f"time step collapsed to {dt:.3e} s (< {self.config.dt_min_fraction:g} x the first step "
+                f"{st.dt_ref:.3e} s) at t = {st.time:.6g} s: max signal speed {vmax:.3e} m/s",
+                reason="dt collapse",
+            )
+        return dt
+
+    # ------------------------------------------------------------------------------ phases
+    def _sort(self, st: State) -> None:
+        """Sort particles by cell (stable) for memory locality of the scatter and gather."""
+        x = st.x.numpy().astype(np.float64)
+        g = self.model.grid
+        cell = np.clip(((x - np.array(g.origin)) / self.h).astype(np.int64), 0, np.array(g.shape) - 1)
+        key = (cell[:, 0] * g.shape[1] + cell[:, 1]) * g.shape[2] + cell[:, 2]
+        perm = np.argsort(key, kind="stable")
+        if np.any(perm != np.arange(st.n)):
+            st.permute(perm)
+
+    def _rasterize(self, st: State, flags: int) -> None:
+        """P2G of the fields ``flags`` into the chunk buffers (windows recomputed with MASS)."""
+        kern = self.kern
+        body = self._body if self._body is not None else st.vpic  # placeholder array when unused
+        if self._body is not None and flags & K.FORCE:
+            flags |= K.BODY
+        zero = self._ready(kern.zero(flags & ~K.BODY))
+        p2g = self._ready(kern.p2g(flags))
+        common = [self.origin, self.t.scalar(1.0 / self.h), self.dims]
+
+        def task(c: int, b: int, e: int) -> Callable[[], None]:
+            def run() -> None:
+                rows = self._rows[c]
+                if self.is_cpu:
+                    lo, hi = st.lo.numpy(), st.hi.numpy()
+                    if flags & K.MASS:
+                        lo[c], hi[c] = self.n_nodes, -1
+                        self._launch(kern.bounds, e - b, [st.x, st.size, *common, b, c, st.lo, st.hi])
+                    start, count = int(lo[c]), int(hi[c]) - int(lo[c]) + 1
+                else:
+                    start, count = 0, self.n_nodes
+                self._launch(zero, count, [start, *rows])
+                self._launch(
+                    p2g,
+                    e - b,
+                    [st.x, st.v, st.mass, st.volume0, st.size, st.F, st.stress, st.material, st.fixed,
+                     self.mat_rigid, self.rigid_vel, body, *common, b, *rows],
+                )  # fmt: skip
+
+            return run
+
+        if not self.is_cpu and flags & K.MASS:
+            st.lo.zero_()
+            st.hi.fill_(self.n_nodes - 1)
+        self._parallel([task(c, b, e) for c, (b, e) in enumerate(st.chunks)])
+
+    def _solve_grid(self, st: State, flags: int, mode: int, dt: float) -> None:
+        """Reduce the chunk buffers and solve the nodes of the active window (threads split the nodes)."""
+        if self.is_cpu:
+            start, stop = int(st.lo.numpy().min()), int(st.hi.numpy().max()) + 1
+        else:
+            start, stop = 0, self.n_nodes
+        edges = np.linspace(start, stop, self.threads + 1).round().astype(int)
+        s = self.t.scalar
+        kernel = self._ready(self.kern.grid(flags, mode))
+        args = [
+            len(st.chunks), st.lo, st.hi,
+            self.b_m, self.b_mom, self.b_f, self.b_cm, self.b_cmom,
+            self.g_m, self.g_mom, self.g_f, self.g_cm, self.g_cmom,
+            self.g_vgrad if mode == K.VELOCITY else self.g_vold, self.g_vnew, self.g_react,
+            s(dt), self._gravity, s(self.config.damping), s(st.min_node_mass), self.dims, self.bc_kind, self.bc_vel,
+        ]  # fmt: skip
+
+        def task(a: int, b: int) -> Callable[[], None]:
+            return lambda: self._launch(kernel, b - a, [a, *args])
+
+        self._parallel([task(int(edges[i]), int(edges[i + 1])) for i in range(self.threads) if edges[i + 1] > edges[i]])
+
+    def _gather(self, st: State, flags: int, dt: float, v_grad: wp.array) -> None:
+        """G2P of the parts ``flags`` (MOVE, GRADIENT, POSITION)."""
+        s = self.t.scalar
+        g2p = self._ready(self.kern.g2p(flags))
+
+        def task(c: int, b: int, e: int) -> Callable[[], None]:
+            return lambda: self._launch(
+                g2p,
+                e - b,
+                [st.x, st.v, st.vpic, st.F, st.L, st.mass, st.size, st.material, st.fixed, self.mat_rigid,
+                 self.rigid_vel, st.reaction, self.g_vold, self.g_vnew, v_grad, self.g_react, self.g_cm,
+                 self.origin, s(1.0 / self.h), self.dims, self.lower, self.upper, b, c, s(dt),
+                 s(self.config.flip), st.bad],
+            )  # fmt: skip
+
+        self._parallel([task(c, b, e) for c, (b, e) in enumerate(st.chunks)])
+
+    def _constitutive(self, st: State, dt: float) -> None:
+        """Each law's stress update on its own particles; history buffers swapped."""
+        s = self.t.scalar
+
+        def task(c: int, b: int, e: int) -> Callable[[], None]:
+            def run() -> None:
+                for i, _, mk, prm in self.laws:
+                    self._launch(
+                        mk.stress,
+                        e - b,
+                        [i, prm, st.F, st.L, st.fiber, st.history, st.history_next, st.material, st.stress,
+                         st.volume0, st.work, s(dt), b, c, st.bad],
+                    )  # fmt: skip
+
+            return run
+
+        self._parallel([task(c, b, e) for c, (b, e) in enumerate(st.chunks)])
+        st.history, st.history_next = st.history_next, st.history
+
+    def _check(self, st: State) -> None:
+        bad = int(st.bad.numpy().min())
+        if bad >= st.n:
+            return
+        x = st.x.numpy()[bad].astype(float)
+        F = st.F.numpy()[bad].astype(float)
+        vals = [x, st.v.numpy()[bad], F, st.stress.numpy()[bad]]
+        if not all(np.all(np.isfinite(a)) for a in vals):
+            reason = "nan"
+        elif not np.linalg.det(F) > 0:
+            reason = "J<=0"
+        elif np.any(x < np.array(self.model.grid.origin)) or np.any(x > np.array(self.model.grid.upper)):
+            reason = "left grid"
+        else:
+            reason = "stress not finite"
+        pid = int(st.id.numpy()[bad])
+        raise InstabilityError(
+            f"unstable at step {st.step} (t = {st.time:.6g} s): particle {pid} at {x.tolist()}: {reason} "
+            f"(J = {np.linalg.det(F):.4g})",
+            particle=pid,
+            position=x,
+            reason=reason,
+        )
+
+    # ------------------------------------------------------------------------------ public
+    def step(self, state: State, dt: float | None = None, control: Control | None = None) -> float:
+        """Advance ``state`` in place by one step of ``dt`` [s] (CFL value if None); returns dt."""
+        st = state
+        cfg = self.config
+        self._apply_control(control)
+        if dt is None:
+            dt = self.stable_dt(st)
+        st.bad.fill_(st.n)
+        if cfg.transfer == "usf":
+            self._rasterize(st, K.MASS | K.MOMENTUM)
+            self._solve_grid(st, K.MASS | K.MOMENTUM, K.VELOCITY, dt)
+            self._gather(st, K.GRADIENT, dt, self.g_vgrad)
+            self._constitutive(st, dt)
+            self._rasterize(st, K.FORCE)
+            self._solve_grid(st, K.FORCE, K.UPDATE, dt)
+            self._gather(st, K.MOVE | K.POSITION, dt, self.g_vgrad)
+        else:
+            self._rasterize(st, K.MASS | K.MOMENTUM | K.FORCE)
+            self._solve_grid(st, K.MASS | K.MOMENTUM | K.FORCE, K.UPDATE, dt)
+            if cfg.transfer == "usl":
+                self._gather(st, K.MOVE | K.GRADIENT | K.POSITION, dt, self.g_vnew)
+            else:
+                self._gather(st, K.MOVE, dt, self.g_vnew)
+                self._rasterize(st, K.MOMENTUM)
+                self._solve_grid(st, K.MOMENTUM, K.VELOCITY, dt)
+                self._gather(st, K.GRADIENT | K.POSITION, dt, self.g_vgrad)
+            self._constitutive(st, dt)
+        self._check(st)
+        st.time += dt
+        st.step += 1
+        # sorted between steps, so arrays a caller sees (and Control arrays in storage order) stay aligned
+        if cfg.sort_interval and st.step % cfg.sort_interval == 0:
+            self._sort(st)
+        return dt
+
+    def run(
+        self,
+        state: State,
+        t_end: float,
+        callback: Callable[[State], Any] | None = None,
+        callback_interval: float | None = None,
+        control: Control | Callable[[State], Control] | None = None,
+    ) -> State:
+        """Step until ``state.time >= t_end`` [s] (the last step is not shortened, so a run
+        split into pieces takes the same steps as one run).
+
+        ``callback(state)`` is called after every step when ``callback_interval`` is None,
+        else each time the clock passes a multiple of ``callback_interval`` [s].
+        ``control`` may be a :class:`Control` or a function of the state returning one.
+        """
+        nxt = None
+        if callback_interval is not None:
+            nxt = (math.floor(state.time / callback_interval + 1e-9) + 1) * callback_interval
+        while state.time < t_end:
+            ctl = control(state) if callable(control) else control
+            self.step(state, None, ctl)
+            if callback is not None:
+                if nxt is None:
+                    callback(state)
+                elif state.time >= nxt * (1 - 1e-12):
+                    callback(state)
+                    nxt = (math.floor(state.time / callback_interval + 1e-9) + 1) * callback_interval
+        return state
+
+    def diagnostics(self, state: State) -> dict[str, Any]:
+        """Conservation and load summaries.
+
+        Returns
+        -------
+        dict
+            ``time`` [s], ``step``, ``mass`` [kg] (deformable particles), ``grid_mass`` [kg]
+            (nodal mass of the last P2G; equals ``mass`` by partition of unity), ``momentum``
+            [kg m/s] (3,), ``kinetic_energy`` [J], ``internal_work`` [J] (integral of
+            V sigma : D dt: the strain energy for elastic laws), ``strain_energy`` [J] (sum of
+            V0 W(F) when every law has a strain energy and n <= 20000, else None),
+            ``reaction`` {material index: force [N] (3,)} on each rigid material and
+            ``fixed_reaction`` [N] (3,) on the fixed particles: the force the rest of the model
+            exerts on them.
+        """
+        st = state
+        mat = st.material.numpy()
+        rigid = self.mat_rigid.numpy().astype(bool)[mat]
+        m = st.mass.numpy().astype(float)
+        v = st.v.numpy().astype(float)
+        md = np.where(rigid, 0.0, m)
+        R = st.reaction.numpy().astype(float)
+        fixed = st.fixed.numpy().astype(bool)
+        out: dict[str, Any] = {
+            "time": st.time,
+            "step": st.step,
+            "mass": float(md.sum()),
+            "grid_mass": self._grid_mass(st),
+            "momentum": (md[:, None] * v).sum(axis=0),
+            "kinetic_energy": float(0.5 * (md * (v * v).sum(axis=1)).sum()),
+            "internal_work": float(st.work.numpy()[~rigid].sum()),
+            "strain_energy": None,
+            "reaction": {i: R[mat == i].sum(axis=0) for i in range(len(self.model.materials)) if self.model.is_rigid(i)},
+            "fixed_reaction": R[fixed & ~rigid].sum(axis=0),
+        }
+        laws = [m for m in self.model.materials if isinstance(m, Material)]
+        if st.n <= 20000 and laws and all(m.has_strain_energy for m in laws):
+            F = st.F.numpy().astype(float)
+            a0 = st.fiber.numpy().astype(float)
+            V0 = st.volume0.numpy().astype(float)
+            W = [V0[p] * self.model.materials[mat[p]].strain_energy(F[p], a0[p]) for p in np.flatnonzero(~rigid)]
+            out["strain_energy"] = float(np.sum(W))
+        return out
+
+    def _grid_mass(self, st: State) -> float:
+        """Sum of the nodal masses of the last P2G (active window only; others are stale)."""
+        if st.step == 0:
+            return float("nan")
+        gm = self.g_m.numpy()
+        if not self.is_cpu:
+            return float(gm.sum())
+        return float(gm[int(st.lo.numpy().min()) : int(st.hi.numpy().max()) + 1].sum())
+
+    def close(self) -> None:
+        """Shut the thread pool down."""
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
+
+    def __del__(self) -> None:  # pragma: no cover
+        try:
+            self.close()
+        except Exception:
+            pass
+

@@ -1,0 +1,174 @@
+"""Time-varying particle data of an MPM run (Newton's State) and its NumPy round trip.
+
+Particles are stored in *storage order*, which the solver permutes (sorting by
+cell for memory locality); ``id`` gives each stored particle's index in the
+original :class:`~tissuempm.mpm.model.ParticleData`. :meth:`State.to_numpy`
+returns every array in original order (so fields can be followed between
+frames) plus ``order`` (the ids in storage order), from which
+:meth:`State.from_numpy` restores the storage layout exactly: a run restarted
+from ``to_numpy()`` data continues bit-identically on the CPU.
+"""
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import warp as wp
+
+from tissuempm.materials.base import Material
+
+if TYPE_CHECKING:  # pragma: no cover
+    from tissuempm.mpm.solver import ExplicitSolver
+
+# name -> (kind, components) of the particle arrays that travel through to_numpy/from_numpy
+PARTICLE_FIELDS: dict[str, tuple[str, tuple[int, ...]]] = {
+    "x": ("vec3", (3,)),
+    "x0": ("vec3", (3,)),
+    "v": ("vec3", (3,)),
+    "mass": ("scalar", ()),
+    "volume0": ("scalar", ()),
+    "size": ("vec3", (3,)),
+    "F": ("mat33", (3, 3)),
+    "L": ("mat33", (3, 3)),
+    "stress": ("mat33", (3, 3)),
+    "material": ("int", ()),
+    "fiber": ("vec3", (3,)),
+    "fixed": ("int", ()),
+    "work": ("scalar", ()),
+    "reaction": ("vec3", (3,)),
+    "vpic": ("vec3", (3,)),
+    "id": ("int", ()),
+}
+"""Particle arrays of a :class:`State` (all in storage order)."""
+RESTART_FIELDS: tuple[str, ...] = tuple(PARTICLE_FIELDS) + ("state",)
+
+
+class State:
+    """Particle arrays (Warp, on the solver's device) plus the clock.
+
+    Attributes
+    ----------
+    x, x0, v : wp.array(vec3)
+        Current and reference position [m], velocity [m/s].
+    mass, volume0 : wp.array(scalar)
+        Particle mass [kg] and reference volume [m^3].
+    size : wp.array(vec3)
+        Reference particle edge lengths [m] (uGIMP domain).
+    F, L, stress : wp.array(mat33)
+        Deformation gradient, velocity gradient [1/s], Cauchy stress [Pa].
+    material, fixed, id : wp.array(int32)
+        Material index, fixed flag, original particle index.
+    fiber : wp.array(vec3)
+        Reference fiber direction a0.
+    work : wp.array(scalar)
+        Accumulated internal (stress) work [J] = integral of V sigma : D dt.
+    reaction : wp.array(vec3)
+        Share of the constraint reaction force [N] on rigid and fixed particles.
+    history, history_next : wp.array2d(scalar)
+        Material history (n, n_state_max), current and scratch buffer (swapped each step).
+    time : float
+        Simulated time [s].
+    step : int
+        Steps taken.
+    dt_ref : float or None
+        First stable time step [s] (reference for the dt-collapse check).
+    """
+
+    def __init__(self) -> None:
+        self.time = 0.0
+        self.step = 0
+        self.dt_ref: float | None = None
+        self.chunks: list[tuple[int, int]] = []
+        self.min_node_mass = 0.0
+
+    @property
+    def n(self) -> int:
+        """Number of particles."""
+        return self.x.shape[0]
+
+    # ----------------------------------------------------------------------------------------- numpy
+    def to_numpy(self, materials: list[Any] | None = None) -> dict[str, Any]:
+        """All particle data in original particle order, plus derived fields.
+
+        Keys: every entry of :data:`PARTICLE_FIELDS`, ``state`` (n, n_state_max), ``J`` (n,),
+        ``failure`` (n,) int (0 intact, 1 matrix, 2 fiber, 3 both; -1 where the law has no
+        failure variable), ``order`` (ids in storage order), and scalars ``time``, ``step``,
+        ``dt_ref`` (NaN if not yet set). ``materials`` defaults to the solver's.
+        """
+        materials = materials if materials is not None else getattr(self, "materials", [])
+        ids = self.id.numpy()
+        inv = np.argsort(ids, kind="stable")
+        out: dict[str, Any] = {}
+        for name in PARTICLE_FIELDS:
+            out[name] = np.array(getattr(self, name).numpy()[inv])
+        out["material"] = out["material"].astype(np.int32)
+        out["fixed"] = out["fixed"].astype(bool)
+        out["state"] = np.array(self.history.numpy()[inv])
+        out["J"] = np.linalg.det(out["F"].astype(np.float64))
+        failure = np.full(self.n, -1, dtype=np.int32)
+        for k, m in enumerate(materials):
+            if isinstance(m, Material):
+                sl = m.state_layout().get("failure")
+                if sl is not None:
+                    sel = out["material"] == k
+                    failure[sel] = np.rint(out["state"][sel, sl.start]).astype(np.int32)
+        out["failure"] = failure
+        out["order"] = np.array(ids, dtype=np.int64)
+        out["time"] = float(self.time)
+        out["step"] = int(self.step)
+        out["dt_ref"] = float("nan") if self.dt_ref is None else float(self.dt_ref)
+        return out
+
+    @classmethod
+    def from_numpy(cls, solver: "ExplicitSolver", data: dict[str, Any]) -> "State":
+        """Rebuild a state from :meth:`to_numpy` output (exact restart).
+
+        ``data`` must hold every key of :data:`RESTART_FIELDS` (``x0``, ``work``, ``reaction``,
+        ``vpic``, ``L`` and ``id`` may be omitted: they default to ``x``, 0, 0, 0, 0 and
+        0..n-1), and may hold ``order``, ``time``, ``step`` and ``dt_ref``.
+        """
+        n = np.asarray(data["x"]).shape[0]
+        defaults = {
+            "x0": lambda: data["x"],
+            "work": lambda: np.zeros(n),
+            "reaction": lambda: np.zeros((n, 3)),
+            "vpic": lambda: np.zeros((n, 3)),
+            "L": lambda: np.zeros((n, 3, 3)),
+            "id": lambda: np.arange(n),
+        }
+        arrays: dict[str, np.ndarray] = {}
+        for name in RESTART_FIELDS:
+            if name in data:
+                arrays[name] = np.asarray(data[name])
+            elif name in defaults:
+                arrays[name] = np.asarray(defaults[name]())
+            else:
+                raise KeyError(f"State.from_numpy: missing array {name!r}")
+        order = np.asarray(data.get("order", np.sort(arrays["id"])), dtype=np.int64)
+        # data are in id order; storage position k holds the particle with id order[k]
+        pos_of_id = np.empty(int(arrays["id"].max()) + 1, dtype=np.int64)
+        pos_of_id[arrays["id"].astype(np.int64)] = np.arange(n)
+        perm = pos_of_id[order]
+        arrays = {k: v[perm] for k, v in arrays.items()}
+        state = solver._allocate_state(arrays)
+        state.time = float(data.get("time", 0.0))
+        state.step = int(data.get("step", 0))
+        dt_ref = float(data.get("dt_ref", float("nan")))
+        state.dt_ref = None if not np.isfinite(dt_ref) else dt_ref
+        return state
+
+    def permute(self, perm: np.ndarray) -> None:
+        """Reorder the particles: storage position k takes the particle now at ``perm[k]``."""
+        for name in PARTICLE_FIELDS:
+            a = getattr(self, name)
+            a.assign(a.numpy()[perm])
+        h = self.history.numpy()[perm]
+        self.history.assign(h)
+        self.history_next.assign(h)
+
+
+def warp_array(values: np.ndarray, kind: str, t: Any, device: str) -> wp.array:
+    """Warp array of ``kind`` ("scalar", "vec3", "mat33", "int", "2d") from NumPy values."""
+    if kind == "int":
+        return wp.array(np.ascontiguousarray(values, dtype=np.int32), dtype=wp.int32, device=device)
+    dtype = {"scalar": t.scalar, "vec3": t.vec3, "mat33": t.mat33}.get(kind, t.scalar)
+    return wp.array(np.ascontiguousarray(values, dtype=t.numpy), dtype=dtype, device=device)

@@ -1,0 +1,89 @@
+"""Helpers of the MPM verification tests: test-only laws and particle seeding.
+
+The laws here are not registered (``kind = ""``); they exist to reproduce the
+constitutive assumptions of the reference solutions exactly.
+"""
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import warp as wp
+
+from tissuempm.materials.base import PRM_OFFSET, Material, copy_state, parameter
+from tissuempm.mpm import ParticleData
+from tissuempm.precision import WarpTypes
+
+
+@dataclass(frozen=True, kw_only=True)
+class Uniaxial1D(Material):
+    """1-D linear elastic bar law sigma_ii = E (F_ii - 1), other components 0 (Bardenhagen 2002;
+    Bardenhagen & Kober 2004). Wave modulus K + 4G/3 = E."""
+
+    E: float = parameter("Pa", default=100.0, gt=0.0, doc="Young's modulus")
+
+    def small_strain_moduli(self) -> tuple[float, float]:
+        return self.E, 0.0
+
+    @classmethod
+    def _build_stress(cls, t: WarpTypes) -> Any:
+        s = t.scalar
+        copy = copy_state(t)
+        o = PRM_OFFSET
+
+        @wp.func
+        def stress(F: t.mat33, L: t.mat33, a0: t.vec3, prm: wp.array(dtype=s), s_in: wp.array2d(dtype=s),
+                   s_out: wp.array2d(dtype=s), p: int, dt: s):  # fmt: skip
+            copy(s_in, s_out, p, 0, s_in.shape[1])
+            E = prm[o]
+            return t.mat33(E * (F[0, 0] - s(1.0)), s(0.0), s(0.0), s(0.0), E * (F[1, 1] - s(1.0)), s(0.0),
+                           s(0.0), s(0.0), E * (F[2, 2] - s(1.0)))  # fmt: skip
+
+        return stress
+
+
+@dataclass(frozen=True, kw_only=True)
+class CompressibleNeoHookean(Material):
+    """sigma = (mu/J)(B - I) + (lam ln J / J) I (Wallstedt & Guilkey 2008, eq. 43)."""
+
+    lam: float = parameter("Pa", default=1.0, gt=0.0, doc="Lame lambda")
+    mu: float = parameter("Pa", default=1.0, gt=0.0, doc="shear modulus")
+
+    def small_strain_moduli(self) -> tuple[float, float]:
+        return self.lam + 2.0 * self.mu / 3.0, self.mu
+
+    def first_piola(self, F: np.ndarray) -> np.ndarray:
+        """P = mu (F - F^-T) + lam ln J F^-T (NumPy, batched (..., 3, 3))."""
+        J = np.linalg.det(F)
+        FinvT = np.swapaxes(np.linalg.inv(F), -1, -2)
+        return self.mu * (F - FinvT) + self.lam * np.log(J)[..., None, None] * FinvT
+
+    @classmethod
+    def _build_stress(cls, t: WarpTypes) -> Any:
+        s = t.scalar
+        copy = copy_state(t)
+        o = PRM_OFFSET
+
+        @wp.func
+        def stress(F: t.mat33, L: t.mat33, a0: t.vec3, prm: wp.array(dtype=s), s_in: wp.array2d(dtype=s),
+                   s_out: wp.array2d(dtype=s), p: int, dt: s):  # fmt: skip
+            copy(s_in, s_out, p, 0, s_in.shape[1])
+            J = wp.determinant(F)
+            I = wp.identity(n=3, dtype=s)
+            return (prm[o + 1] / J) * (F * wp.transpose(F) - I) + (prm[o] * wp.log(J) / J) * I
+
+        return stress
+
+
+def lattice(lower, upper, spacing) -> np.ndarray:
+    """Cell-centred points of a regular lattice filling the box [lower, upper] (n, 3)."""
+    lower, upper, spacing = (np.broadcast_to(np.asarray(a, float), 3) for a in (lower, upper, spacing))
+    axes = [lower[a] + (np.arange(int(round((upper[a] - lower[a]) / spacing[a]))) + 0.5) * spacing[a] for a in range(3)]
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+
+
+def block(lower, upper, spacing, material=0, **kw) -> ParticleData:
+    """Particles on a lattice in a box, volume = product of spacings, size = spacing."""
+    x = lattice(lower, upper, spacing)
+    sp = np.broadcast_to(np.asarray(spacing, float), 3)
+    return ParticleData(x=x, volume=float(np.prod(sp)), size=sp, material=material, **kw)

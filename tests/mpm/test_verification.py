@@ -1,0 +1,215 @@
+"""Dynamic verification problems (fast versions; full versions marked slow, see docs/verification.md).
+
+All problems that are 1-D or 2-D run on the 3-D solver with one cell across the other
+directions and slip (symmetry) walls on those faces.
+"""
+
+import numpy as np
+import pytest
+from mpm_testlib import CompressibleNeoHookean, Uniaxial1D, block, lattice
+
+from tissuempm.materials import LinearElastic
+from tissuempm.mpm import Control, ExplicitSolver, Grid, GridBoundary, Model, ParticleData, SolverConfig
+
+
+def side_walls(axes=(1, 2)):
+    return [GridBoundary(a, side, "slip") for a in axes for side in ("lower", "upper")]
+
+
+def rod(length, h, ppc, material=0):
+    """Particles along x in [0, length], one cell thick in y and z (cell [0, h])."""
+    return block((0.0, 0.0, 0.0), (length, h, h), (h / ppc, h, h), material=material)
+
+
+# ----------------------------------------------------------------------------------------- vibrating bar
+def vibrating_bar(shape="gimp", transfer="musl", periods=1.0, h=1.0, ppc=2):
+    """Bardenhagen (2002): L 25, E 100, rho 1, v0 0.1, fixed-free, first mode.
+    Returns (t, v_cm, exact v_cm, period estimate, mass/momentum drift)."""
+    L, E, rho, v0 = 25.0, 100.0, 1.0, 0.1
+    omega = np.pi / (2 * L) * np.sqrt(E / rho)
+    grid = Grid(origin=(0, 0, 0), cell_size=h, shape=(int(round(32 / h)), 1, 1))
+    pd = rod(L, h, ppc)
+    vel = np.zeros_like(pd.x)
+    vel[:, 0] = v0 * np.sin(np.pi * pd.x[:, 0] / (2 * L))
+    pd = ParticleData(x=pd.x, volume=pd.volume, size=pd.size, material=0, velocity=vel)
+    model = Model(grid=grid, materials=[Uniaxial1D(E=E, density=rho)],
+                  boundaries=[GridBoundary(0, "lower", "fixed"), *side_walls()])  # fmt: skip
+    s = ExplicitSolver(model, SolverConfig(shape=shape, transfer=transfer, threads=1, cfl=0.3))
+    st = s.initial_state(pd)
+    T = 2 * np.pi / omega
+    rec = []
+    s.run(st, periods * T, callback=lambda state: rec.append((state.time, s.diagnostics(state))))
+    t = np.array([r[0] for r in rec])
+    m = rec[0][1]["mass"]
+    vcm = np.array([r[1]["momentum"][0] for r in rec]) / m
+    exact = 2 * v0 / np.pi * np.cos(omega * t)
+    # period from the zero crossings of v_cm (T/4, 3T/4, ...)
+    sgn = np.sign(vcm)
+    idx = np.flatnonzero(sgn[:-1] != sgn[1:])
+    tz = t[idx] - vcm[idx] * (t[idx + 1] - t[idx]) / (vcm[idx + 1] - vcm[idx])
+    period = 2 * np.mean(np.diff(tz)) if len(tz) > 1 else np.nan
+    lateral = max(np.abs(r[1]["momentum"][1:]).max() for r in rec)
+    return t, vcm, exact, period, T, lateral
+
+
+def test_vibrating_bar_period():
+    t, vcm, exact, period, T, lateral = vibrating_bar(periods=1.0)
+    assert abs(period - T) / T < 0.01
+    assert np.abs(vcm - exact).max() < 0.05 * 2 * 0.1 / np.pi
+    assert lateral < 1e-12  # no spurious transverse momentum
+
+
+# ----------------------------------------------------------------------------------------- colliding disks
+def colliding_disks(h=0.05, ppc=2, t_end=3.5, shape="gimp"):
+    """Sulsky et al. (1994): E 1000, nu 0.3, rho 1000, radius 0.2, centres (0.2, 0.2) and (0.8, 0.8),
+    v = +-(0.1, 0.1), plane strain. Returns times, energies and the disks' mean velocities."""
+    grid = Grid(origin=(0, 0, 0), cell_size=h, shape=(int(round(1 / h)), int(round(1 / h)), 1))
+    pts = lattice((0, 0, 0), (1, 1, h), (h / ppc, h / ppc, h))
+    r1 = np.hypot(pts[:, 0] - 0.2, pts[:, 1] - 0.2) < 0.2
+    r2 = np.hypot(pts[:, 0] - 0.8, pts[:, 1] - 0.8) < 0.2
+    x = np.vstack([pts[r1], pts[r2]])
+    v = np.vstack([np.tile([0.1, 0.1, 0], (r1.sum(), 1)), np.tile([-0.1, -0.1, 0], (r2.sum(), 1))])
+    sp = (h / ppc, h / ppc, h)
+    pd = ParticleData(x=x, volume=np.prod(sp), size=sp, material=0, velocity=v)
+    model = Model(grid=grid, materials=[LinearElastic(E=1000.0, nu=0.3, density=1000.0)], boundaries=side_walls((2,)))
+    s = ExplicitSolver(model, SolverConfig(shape=shape, threads=1))
+    st = s.initial_state(pd)
+    n1 = r1.sum()
+    rec = []
+
+    def cb(state):
+        d = s.diagnostics(state)
+        vv = state.to_numpy()["v"]
+        rec.append((state.time, d["kinetic_energy"], d["internal_work"], vv[:n1, :2].mean(0), d["momentum"]))
+
+    s.run(st, t_end, callback=cb)
+    t = np.array([r[0] for r in rec])
+    ke = np.array([r[1] for r in rec])
+    se = np.array([r[2] for r in rec])
+    return t, ke, se, np.array([r[3] for r in rec]), np.array([r[4] for r in rec])
+
+
+def test_colliding_disks_rebound_and_energy():
+    t, ke, se, v1, mom = colliding_disks(h=0.05)
+    e0 = ke[0]
+    assert v1[-1, 0] < 0 and v1[-1, 1] < 0  # disk 1 has rebounded
+    # energy: never created (stability), and at most 20 % lost to the no-slip grid contact and the
+    # 1 % PIC part of the velocity update at this coarse resolution (see docs/verification.md)
+    assert (ke + se).max() < 1.01 * e0
+    assert (ke[-1] + se[-1]) > 0.8 * e0
+    np.testing.assert_allclose(mom, 0.0, atol=1e-12)  # each disk carries |p| ~ 0.9 kg m/s
+
+
+# ----------------------------------------------------------------------------------------- manufactured solution
+def mms_error(n_cells, shape="gimp", ppc=2, cfl=0.2, A=0.05):
+    """Wallstedt & Guilkey (2008) axis-aligned displacement u = A sin(2 pi X) sin(c pi t) along x
+    (A 0.05, E 1e4, nu 0.3, rho0 1, c = sqrt(E/rho0)); max position error over one period."""
+    E, nu, rho0 = 1.0e4, 0.3, 1.0
+    lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
+    c = np.sqrt(E / rho0)
+    h = 1.0 / n_cells
+    law = CompressibleNeoHookean(lam=lam, mu=mu, density=rho0)
+    grid = Grid(origin=(0, 0, 0), cell_size=h, shape=(n_cells, 1, 1))
+    pd = rod(1.0, h, ppc)
+    vel = np.zeros_like(pd.x)
+    vel[:, 0] = A * np.sin(2 * np.pi * pd.x[:, 0]) * c * np.pi
+    pd = ParticleData(x=pd.x, volume=pd.volume, size=pd.size, material=0, velocity=vel)
+    bcs = [GridBoundary(0, "lower", "slip"), GridBoundary(0, "upper", "slip"), *side_walls()]
+    s = ExplicitSolver(Model(grid=grid, materials=[law], boundaries=bcs),
+                       SolverConfig(shape=shape, threads=1, cfl=cfl, flip=1.0, transfer="usl"))  # fmt: skip
+    st = s.initial_state(pd)
+
+    def body(state):
+        X = state.x0.numpy()[:, 0].astype(float)
+        t = state.time
+        st_ = np.sin(c * np.pi * t)
+        u = A * np.sin(2 * np.pi * X) * st_
+        Fx = 1 + 2 * np.pi * A * np.cos(2 * np.pi * X) * st_
+        dF = -4 * np.pi**2 * u
+        dP = (mu * (1 + Fx**-2) + lam * (1 - np.log(Fx)) / Fx**2) * dF
+        b = np.zeros((len(X), 3))
+        b[:, 0] = -(c * np.pi) ** 2 * u - dP / rho0
+        return Control(body_acceleration=b)
+
+    err = [0.0]
+
+    def cb(state):
+        X = state.x0.numpy()[:, 0].astype(float)
+        exact = X + A * np.sin(2 * np.pi * X) * np.sin(c * np.pi * state.time)
+        err[0] = max(err[0], float(np.abs(state.x.numpy()[:, 0] - exact).max()))
+
+    s.run(st, 2.0 / c, callback=cb, control=body)
+    return err[0]
+
+
+def test_manufactured_solution_converges_gimp():
+    """Observed order >= 1.5 over three refinements in the small-deformation regime (A = 5e-4).
+    At the paper's A = 0.05 (|F - 1| up to 0.31) uGIMP's error saturates near 1e-3 (quadrature error of
+    undeformed particle domains, Steffen et al. 2008): reported in docs/verification.md."""
+    e = [mms_error(n, A=5e-4) for n in (8, 16, 32)]
+    order = np.log2(np.array(e[:-1]) / np.array(e[1:]))
+    assert order.min() >= 1.5, (e, order)
+
+
+# ----------------------------------------------------------------------------------------- column under own weight
+def column(shape="gimp", h=1.0, L=50.0, ppc=2, g_max=800.0, E=1.0e6, rho=1.0):
+    """Bardenhagen & Kober (2004): gravity ramped 0 -> g_max over 0-2 s, held to 3 s with damping.
+    Returns (particle displacement, exact u(X)) for the whole column."""
+    grid = Grid(origin=(0, 0, 0), cell_size=h, shape=(int(round((L + 4 * h) / h)), 1, 1))
+    pd = rod(L, h, ppc)
+    model = Model(grid=grid, materials=[Uniaxial1D(E=E, density=rho)],
+                  boundaries=[GridBoundary(0, "lower", "fixed"), *side_walls()])  # fmt: skip
+    s = ExplicitSolver(model, SolverConfig(shape=shape, threads=1, damping=10.0, flip=0.99))
+    st = s.initial_state(pd)
+    s.run(st, 3.0, control=lambda state: Control(gravity=(-g_max * min(state.time / 2.0, 1.0), 0, 0)))
+    d = st.to_numpy()
+    X = d["x0"][:, 0]
+    return d["x"][:, 0] - X, -(rho * g_max / E) * (L * X - 0.5 * X**2), s.diagnostics(st)
+
+
+@pytest.mark.parametrize("shape, h", [("gimp", 2.5), ("bspline", 1.0)])
+def test_column_tip_displacement(shape, h):
+    """Tip within 2 % of -rho g L^2 / (2E) = -1 (B-spline's non-interpolating basis at the fixed base
+    costs ~3 % at h = 2.5, hence the full cell size for it)."""
+    u, exact, diag = column(shape=shape, h=h)
+    top = -1  # particles are seeded bottom to top
+    assert abs(u[top] - exact[top]) / abs(exact[top]) < 0.02
+    assert diag["grid_mass"] == pytest.approx(diag["mass"], rel=1e-12)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("shape", ["linear", "gimp", "bspline"])
+def test_column_full(shape):
+    u, exact, _ = column(shape=shape, h=1.0)
+    err = abs(u[-1] - exact[-1]) / abs(exact[-1])
+    print(shape, "tip", u[-1], "exact", exact[-1], "rel err", err)
+    if shape != "linear":
+        assert err < 0.02
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("shape", ["linear", "gimp", "bspline"])
+def test_manufactured_solution_full(shape):
+    for A in (0.05, 5e-4):
+        e = [mms_error(n, shape=shape, A=A) for n in (8, 16, 32, 64)]
+        order = np.log2(np.array(e[:-1]) / np.array(e[1:]))
+        print(shape, "A", A, "errors/A", np.array(e) / A, "orders", order)
+        if shape == "gimp" and A < 1e-3:
+            assert order.min() >= 1.5
+
+
+@pytest.mark.slow
+def test_vibrating_bar_full():
+    for shape in ("linear", "gimp", "bspline"):
+        t, vcm, exact, period, T, _ = vibrating_bar(shape=shape, periods=5.0, h=0.5)
+        print(shape, "period", period, "exact", T, "rel err", abs(period - T) / T)
+        if shape != "bspline":  # B-spline: 1.35 % at h = 1 (boundary basis), reported in docs/verification.md
+            assert abs(period - T) / T < 0.01
+
+
+@pytest.mark.slow
+def test_colliding_disks_full():
+    t, ke, se, v1, _ = colliding_disks(h=0.025, t_end=4.0)
+    e = ke + se
+    print("energy min/max/end relative", e.min() / e[0], e.max() / e[0], e[-1] / e[0], "v1 end", v1[-1])
+    assert v1[-1, 0] < 0 and e.max() < 1.01 * e[0] and e[-1] > 0.8 * e[0]
