@@ -264,20 +264,13 @@ def materials_plot(
     console.print(f"wrote {output}")
 
 
-def _register_optional_commands() -> None:
-    """Commands of subpackages (calibration, MPM scenarios)."""
-    try:
-        from tissuempm.calibration.command import calibrate
-    except ImportError:
-        pass
-    else:
-        app.command("calibrate")(calibrate)
-    try:
-        from tissuempm.scenarios.command import run
-    except ImportError:
-        pass
-    else:
-        app.command("run")(run)
+def _register_commands() -> None:
+    """Commands of the calibration and MPM subpackages (imported here to keep them out of `materials`)."""
+    from tissuempm.calibration.command import calibrate
+    from tissuempm.scenarios.command import run
+
+    app.command("calibrate")(calibrate)
+    app.command("run")(run)
 
 
-_register_optional_commands()
+_register_commands()
