@@ -1,0 +1,138 @@
+"""``tissuempm calibrate CONFIG.toml [--out DIR] [--json]``: fit a material model to data files.
+
+The lead registers :func:`calibrate` in ``tissuempm.cli`` (``app.command("calibrate")(calibrate)``).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from tissuempm.calibration.config import CalibrationConfig, ConfigError, load_config
+from tissuempm.calibration.data import DataError, read_csv
+from tissuempm.calibration.fit import FitResult, fit, make_form
+from tissuempm.calibration.optimizers import SearchSettings
+
+
+def run_config(cfg: CalibrationConfig, base: Path, progress=None) -> FitResult:
+    """Load the data of a validated config, fit, and run the requested analyses."""
+    curves = []
+    for d in cfg.data:
+        path = Path(d.file)
+        path = path if path.is_absolute() else base / path
+        curves += read_csv(
+            path, strain_rate=d.strain_rate, mode=d.mode, weight=d.weight, stress_unit=d.stress_unit,
+            strain_unit=d.strain_unit, points=d.points, positive_compression=d.positive_compression, name=d.name,
+        )
+    m = cfg.model
+    form = make_form(
+        m.form, curves, terms=m.terms, prony_terms=m.prony_terms, K=m.bulk_modulus, density=m.density,
+        volumetric=m.volumetric, nu=m.poisson_ratio, bounds={k: tuple(v) for k, v in m.bounds.items()},
+    )
+    o = cfg.optimizer
+    start = None
+    if m.start is not None:
+        missing = [n for n in form.names if n not in m.start]
+        unknown = [n for n in m.start if n not in form.names]
+        if missing or unknown:
+            raise ConfigError(f"model.start must give exactly {', '.join(form.names)} "
+                              f"(missing: {missing}, unknown: {unknown})")
+        start = tuple(m.start[n] for n in form.names)
+    settings = SearchSettings(
+        method=o.method, seed=o.seed, local_solver=o.local_solver, trial_points=o.trial_points,
+        stage1_points=o.stage1_points, max_local_runs=o.max_local_runs, local_maxiter=o.local_maxiter,
+        popsize=o.popsize, maxiter=o.maxiter, polish=o.polish, start=start,
+    )
+    result = fit(form, curves, settings, stability_range=m.stability_range, stability_modes=m.stability_modes,
+                 max_increment=m.max_increment, progress=progress)
+    a = cfg.analysis
+    from tissuempm.calibration import identifiability as ident
+
+    result.statistics["information_criteria"] = ident.information_criteria(result)
+    if a.standard_errors:
+        result.statistics["standard_errors"] = ident.standard_errors(result)
+    if a.profile:
+        result.statistics["profiles"] = [ident.profile_likelihood(result, n, n_points=a.profile_points)
+                                         for n in form.names]
+    if a.bootstrap:
+        result.statistics["bootstrap"] = ident.bootstrap(result, a.bootstrap, seed=o.seed)
+    if a.compare_terms:
+        table = []
+        for n_terms in a.compare_terms:
+            f2 = make_form(m.form, curves, terms=n_terms, prony_terms=m.prony_terms, K=m.bulk_modulus,
+                           density=m.density, volumetric=m.volumetric, nu=m.poisson_ratio)
+            r2 = fit(f2, curves, SearchSettings(method=o.method, seed=o.seed, local_solver=o.local_solver,
+                                                trial_points=o.trial_points, stage1_points=o.stage1_points,
+                                                max_local_runs=o.max_local_runs),
+                     stability_range=m.stability_range, stability_modes=m.stability_modes,
+                     max_increment=m.max_increment)
+            table.append({"terms": n_terms, **ident.information_criteria(r2), "parameters": r2.parameters})
+        result.statistics["model_selection"] = table
+    return result
+
+
+def _table(result: FitResult) -> Table:
+    se = result.statistics.get("standard_errors", {}).get("se")
+    t = Table(title=f"{result.form.describe()}  -  total cost O = {result.cost:.4g}")
+    t.add_column("parameter")
+    t.add_column("value", justify="right")
+    t.add_column("unit")
+    t.add_column("std. error", justify="right")
+    for i, n in enumerate(result.form.names):
+        t.add_row(n, f"{result.parameters[n]:.5g}", result.units[n], "" if not se else f"{se[i]:.3g}")
+    for c, o in zip(result.curves, result.costs):
+        t.add_row(escape(f"O[{c.name}]"), f"{o:.4g}", "-", f"w = {c.weight:g}")
+    return t
+
+
+def calibrate(
+    config: Annotated[Path, typer.Argument(help="calibration config file (TOML)")],
+    out: Annotated[
+        Path | None, typer.Option("--out", help="output folder (default: <config stem>_calibration next to it)")
+    ] = None,
+    json_output: Annotated[bool, typer.Option("--json", help="print the result as JSON (for scripts)")] = False,
+) -> None:
+    """Fit a material model to stress-strain data files (seed 004 Sec. 2.3) and write the results."""
+    err = Console(stderr=True)
+    try:
+        cfg = load_config(config)
+    except ConfigError as e:
+        err.print(f"[red]error:[/red] {e}", highlight=False)
+        raise typer.Exit(2) from None
+    base = config.resolve().parent
+    out = out or base / f"{config.stem}_calibration"
+    total = cfg.optimizer.max_local_runs if cfg.optimizer.method == "globalsearch" else (
+        cfg.optimizer.maxiter + cfg.optimizer.polish)
+    with Progress(TextColumn("[progress.description]{task.description}"), BarColumn(), TextColumn("{task.fields[best]}"),
+                  TimeElapsedColumn(), console=err, transient=json_output) as bar:
+        task = bar.add_task("calibrating", total=total, best="")
+
+        def progress(done: int, n: int, best: float) -> None:
+            bar.update(task, completed=done, total=n, best="" if best != best else f"best O = {best:.4g}")
+
+        try:
+            result = run_config(cfg, base, progress)
+        except (DataError, ConfigError, ValueError, RuntimeError) as e:
+            err.print(f"[red]error:[/red] {e}", highlight=False)
+            raise typer.Exit(2) from None
+    from tissuempm.calibration.results import to_json, write_results
+
+    name = cfg.output.name or config.stem.replace("-", "_")
+    files = write_results(result, out, name, title=cfg.output.title, source=f"tissuempm calibrate {config.name}",
+                          plots=cfg.output.plots, plot_rates_list=cfg.output.plot_rates or None,
+                          lsdyna_units=cfg.output.lsdyna_units)
+    if json_output:
+        sys.stdout.write(to_json(result) + "\n")
+        return
+    con = Console()
+    con.print(_table(result))
+    con.print(f"{len(result.minima)} distinct local minima; {result.search.local_runs} local runs, "
+              f"{result.search.nfev} model evaluations, {result.search.wall_time:.1f} s")
+    con.print(f"results in {out} ({', '.join(sorted(files))})")

@@ -1,0 +1,152 @@
+"""Calibration config files (TOML), validated with pydantic; unknown keys are rejected by name.
+
+Minimal example (Brewick et al. 2017 style hyper-viscoelastic fit)::
+
+    [model]
+    form = "ogden"          # neo_hookean, mooney_rivlin, yeoh, reduced_polynomial, polynomial, ogden, hgo, linear_elastic
+    terms = 2
+    prony_terms = 2         # 0 for a purely hyperelastic fit
+
+    [[data]]
+    file = "compression_1000.csv"   # columns strain,stress (engineering strain, nominal stress in Pa)
+    strain_rate = -1000.0           # 1/s; negative means compression
+    weight = 2.0
+
+    [optimizer]
+    method = "globalsearch"         # or "differential_evolution"
+    seed = 1
+
+Every other key is optional; see :class:`CalibrationConfig` and ``docs/calibration.md``.
+Relative data paths are resolved from the config file's folder.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+from tissuempm.calibration.forms import FORMS
+
+
+class ConfigError(ValueError):
+    """A config file is missing, is not valid TOML or does not match the schema."""
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class ModelConfig(_Strict):
+    """``[model]``: the model form and its fixed settings."""
+
+    form: Literal[FORMS]  # type: ignore[valid-type]
+    terms: int | None = Field(None, ge=1, le=6, description="Ogden terms / polynomial order (default per form)")
+    prony_terms: int = Field(0, ge=0, le=6, description="Prony terms (0: purely elastic)")
+    bulk_modulus: float = Field(2.19e9, gt=0, description="fixed initial bulk modulus K [Pa]")
+    density: float = Field(1000.0, gt=0, description="density [kg/m^3]")
+    volumetric: Literal["abaqus", "log"] = "abaqus"
+    poisson_ratio: float = Field(0.3, gt=-1, lt=0.5, description="fixed Poisson's ratio of a linear_elastic core")
+    bounds: dict[str, tuple[float, float]] = Field(default_factory=dict, description="name or name[i] -> [lo, hi]")
+    start: dict[str, float] | None = Field(None, description="start point of the first local run (all parameters)")
+    stability_range: tuple[float, float] | None = Field(
+        None, description="extra stretch range [lo, hi] where Drucker stability is required"
+    )
+    stability_modes: list[Literal["uniaxial", "equibiaxial", "pure_shear"]] = ["uniaxial", "equibiaxial", "pure_shear"]
+    max_increment: float = Field(0.0025, gt=0, le=0.05, description="strain increment of the viscoelastic history")
+
+
+class DataConfig(_Strict):
+    """``[[data]]``: one data file."""
+
+    file: str
+    strain_rate: float | None = Field(None, description="1/s, negative in compression; omit for quasi-static")
+    weight: float = Field(1.0, gt=0)
+    mode: Literal["uniaxial", "tension", "compression", "equibiaxial", "biaxial", "pure_shear", "planar"] | None = None
+    stress_unit: Literal["Pa", "kPa", "MPa", "GPa"] | None = None
+    strain_unit: Literal["1", "-", "percent", "%"] | None = None
+    points: int = Field(20, ge=2, description="equally spaced points per curve (report: 20)")
+    positive_compression: bool = False
+    name: str | None = None
+
+    @field_validator("strain_rate")
+    @classmethod
+    def _nonzero(cls, v: float | None) -> float | None:
+        if v is not None and v == 0:
+            raise ValueError("strain_rate must be non-zero (omit it for quasi-static data)")
+        return v
+
+
+class OptimizerConfig(_Strict):
+    """``[optimizer]``: the global search (see :class:`tissuempm.calibration.optimizers.SearchSettings`)."""
+
+    method: Literal["globalsearch", "differential_evolution"] = "globalsearch"
+    seed: int = 0
+    local_solver: Literal["slsqp", "trust-constr"] = "slsqp"
+    trial_points: int = Field(400, ge=10)
+    stage1_points: int = Field(80, ge=2)
+    max_local_runs: int = Field(25, ge=1)
+    local_maxiter: int = Field(400, ge=1)
+    popsize: int = Field(15, ge=4)
+    maxiter: int = Field(200, ge=1)
+    polish: int = Field(5, ge=1)
+
+
+class AnalysisConfig(_Strict):
+    """``[analysis]``: identifiability and model selection."""
+
+    standard_errors: bool = True
+    profile: bool = False
+    profile_points: int = Field(11, ge=3)
+    bootstrap: int = Field(0, ge=0, description="residual-bootstrap replicates (0: none)")
+    compare_terms: list[int] = Field(default_factory=list, description="term counts compared by AIC/BIC")
+
+
+class OutputConfig(_Strict):
+    """``[output]``: names and files."""
+
+    name: str | None = Field(None, description="library name of the fitted material (default: config file stem)")
+    title: str | None = None
+    plots: bool = True
+    plot_rates: list[float] = Field(default_factory=list, description="rates [1/s] of the -30..+30 % plot")
+    lsdyna_units: Literal["SI", "mm-ms-kg", "mm-s-tonne"] = "SI"
+
+
+class CalibrationConfig(_Strict):
+    """A whole calibration config."""
+
+    model: ModelConfig
+    data: list[DataConfig] = Field(min_length=1)
+    optimizer: OptimizerConfig = OptimizerConfig()
+    analysis: AnalysisConfig = AnalysisConfig()
+    output: OutputConfig = OutputConfig()
+
+
+def _format(err: ValidationError, path: Path) -> str:
+    msgs = []
+    for e in err.errors():
+        loc = ".".join(str(x) for x in e["loc"])
+        if e["type"] == "extra_forbidden":
+            msgs.append(f"unknown key {loc!r}")
+        elif e["type"] == "missing":
+            msgs.append(f"missing key {loc!r}")
+        else:
+            msgs.append(f"{loc}: {e['msg']} (got {e.get('input')!r})")
+    return f"{path}: invalid calibration config:\n  " + "\n  ".join(msgs)
+
+
+def load_config(path: str | Path) -> CalibrationConfig:
+    """Read and validate a config file (raises :class:`ConfigError` with every problem listed)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"config file {str(path)!r} does not exist")
+    try:
+        raw = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as err:
+        raise ConfigError(f"{path}: not valid TOML: {err}") from None
+    try:
+        return CalibrationConfig.model_validate(raw)
+    except ValidationError as err:
+        raise ConfigError(_format(err, path)) from None

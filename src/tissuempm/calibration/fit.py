@@ -1,0 +1,177 @@
+"""Fitting: data sets + model form + search settings -> a new frozen material with fit statistics.
+
+Example
+-------
+>>> from tissuempm.calibration import fit, make_form, SearchSettings   # doctest: +SKIP
+>>> form = make_form("ogden", curves, terms=2, prony_terms=2)
+>>> result = fit(form, curves, SearchSettings(seed=1))
+>>> result.material            # Viscoelastic(elastic=Ogden(...), g=..., tau=...)
+>>> result.cost, result.costs  # total O (eq. 54) and O_m per data set (eq. 52)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from tissuempm.calibration.constraints import STABILITY_MODES, Constraints
+from tissuempm.calibration.cost import CostFunction
+from tissuempm.calibration.data import Curve
+from tissuempm.calibration.forms import ModelForm, modulus_scale, time_range
+from tissuempm.calibration.forward import DEFAULT_MAX_INCREMENT
+from tissuempm.calibration.optimizers import LocalMinimum, Problem, SearchResult, SearchSettings, search
+from tissuempm.materials.base import Material
+
+
+def make_form(
+    form: str,
+    curves: Sequence[Curve],
+    *,
+    terms: int | None = None,
+    prony_terms: int = 0,
+    K: float = 2.19e9,
+    density: float = 1000.0,
+    volumetric: str = "abaqus",
+    nu: float = 0.3,
+    bounds: dict[str, tuple[float, float]] | None = None,
+    fixed: dict[str, Any] | None = None,
+) -> ModelForm:
+    """A model form whose default bounds are scaled to the data (modulus scale and time range).
+
+    ``K`` (default 2.19 GPa, the report's soft-tissue bulk modulus), ``density`` and
+    ``volumetric`` are fixed for hyperelastic cores, ``nu`` for a linear elastic core.
+    """
+    fx: dict[str, Any] = {"density": density}
+    if form == "linear_elastic":
+        fx["nu"] = nu
+    else:
+        fx.update({"K": K, "volumetric": volumetric})
+    fx.update(fixed or {})
+    return ModelForm(
+        form, terms, prony_terms, scale=modulus_scale(curves), time_range=time_range(curves),
+        fixed=fx, bounds=dict(bounds or {}),
+    )
+
+
+@dataclass
+class FitResult:
+    """A fitted material and its statistics.
+
+    Attributes
+    ----------
+    material
+        The fitted frozen material (best feasible minimum).
+    parameters
+        Fitted parameters by name (SI units).
+    units
+        Unit of each parameter.
+    cost
+        Total cost O (eq. 54).
+    costs
+        O_m per data set (eq. 52).
+    minima
+        Every distinct local minimum (sorted by cost; see :class:`LocalMinimum`).
+    search
+        The search record (method, seed, evaluations, local runs, wall time).
+    form, curves, objective, constraints
+        The problem, for the identifiability analysis, plots and exports.
+    """
+
+    material: Material
+    parameters: dict[str, float]
+    units: dict[str, str]
+    cost: float
+    costs: np.ndarray
+    minima: list[LocalMinimum]
+    search: SearchResult
+    form: ModelForm
+    curves: list[Curve]
+    objective: CostFunction
+    constraints: Constraints
+    statistics: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def theta(self) -> np.ndarray:
+        return np.array([self.parameters[n] for n in self.form.names])
+
+    def predictions(self) -> list[np.ndarray]:
+        """Model stress [Pa] per data set at the optimum."""
+        return self.objective.predictions(self.theta)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary: parameters (SI), cost, costs, material, minima, search."""
+        return {
+            "model": self.form.describe(),
+            "parameters": dict(self.parameters),
+            "units": dict(self.units),
+            "cost": self.cost,
+            "costs": {c.name: float(o) for c, o in zip(self.curves, self.costs)},
+            "material": self.material.to_dict(),
+            "minima": [
+                {"cost": m.cost, "feasible": m.feasible, "hits": m.hits,
+                 "parameters": dict(zip(self.form.names, map(float, m.theta))), "violations": m.violations}
+                for m in self.minima
+            ],
+            "search": {"method": self.search.method, "seed": self.search.seed, "nfev": self.search.nfev,
+                       "local_runs": self.search.local_runs, "wall_time_s": self.search.wall_time},
+            "statistics": self.statistics,
+        }
+
+
+def stretch_range(curves: Sequence[Curve]) -> tuple[float, float]:
+    """(lowest, highest) stretch of the data sets, 1 included."""
+    lam = np.concatenate([c.stretch for c in curves] + [np.ones(1)])
+    return float(lam.min()), float(lam.max())
+
+
+def build_problem(
+    form: ModelForm,
+    curves: Sequence[Curve],
+    *,
+    stability_range: tuple[float, float] | None = None,
+    stability_modes: Sequence[str] = STABILITY_MODES,
+    max_increment: float = DEFAULT_MAX_INCREMENT,
+) -> Problem:
+    """Objective and constraints of a fit."""
+    cost = CostFunction(form, list(curves), max_increment)
+    cons = Constraints(form, stretch_range(curves), stability_range, tuple(stability_modes))
+    return Problem(cost, cons)
+
+
+def fit(
+    form: ModelForm,
+    curves: Sequence[Curve],
+    settings: SearchSettings | None = None,
+    *,
+    stability_range: tuple[float, float] | None = None,
+    stability_modes: Sequence[str] = STABILITY_MODES,
+    max_increment: float = DEFAULT_MAX_INCREMENT,
+    progress: Callable[[int, int, float], None] | None = None,
+) -> FitResult:
+    """Fit ``form`` to ``curves`` with a constrained global search (seed 004 Sec. 2.3).
+
+    Returns the best feasible minimum as a new frozen material; raises RuntimeError when
+    no local run ends at parameters satisfying every constraint.
+    """
+    settings = settings or SearchSettings()
+    problem = build_problem(form, curves, stability_range=stability_range, stability_modes=stability_modes,
+                            max_increment=max_increment)
+    res = search(problem, settings, progress)
+    best = res.best
+    theta = best.theta
+    return FitResult(
+        material=form.material(theta),
+        parameters=dict(zip(form.names, map(float, theta))),
+        units={p.name: p.unit for p in form.params},
+        cost=float(problem.cost(theta)),
+        costs=problem.cost.costs(theta),
+        minima=res.minima,
+        search=res,
+        form=form,
+        curves=list(curves),
+        objective=problem.cost,
+        constraints=problem.constraints,
+    )
