@@ -63,3 +63,14 @@ def test_bone_prony_recovery_fast():
     np.testing.assert_allclose(theta, true, rtol=1e-2)
     assert r.cost < 1e-4
     assert r.material.kind == "viscoelastic" and r.material.elastic.kind == "linear_elastic"
+
+
+def test_differential_evolution_alternative_is_seeded():
+    truth = MooneyRivlin(C10=1.5e5, C01=2e4, K=K)
+    curves = _curves(truth, ("uniaxial", "equibiaxial"))
+    f = make_form("mooney_rivlin", curves, K=K)
+    s = SearchSettings(method="differential_evolution", seed=2, popsize=8, maxiter=30, polish=2)
+    r1, r2 = fit(f, curves, s), fit(f, curves, s)
+    assert r1.cost < 1e-4
+    np.testing.assert_allclose(r1.theta, [1.5e5, 2e4], rtol=1e-4)
+    np.testing.assert_array_equal(r1.theta, r2.theta)  # reproducible
