@@ -44,14 +44,8 @@ MODES: tuple[str, ...] = ("uniaxial", "equibiaxial", "pure_shear", "simple_shear
 QUASI_STATIC_DT = 1.0e30
 """Step duration [s] used when no rate is given (all relaxation completes)."""
 
-# (row, col) of the unknown F components and of the stresses solved to zero, per mode
-_UNKNOWNS: dict[str, tuple[tuple[int, int], ...]] = {
-    "uniaxial": ((0, 1), (0, 2), (1, 1), (1, 2), (2, 2)),
-    "equibiaxial": ((0, 2), (1, 2), (2, 2)),
-    "pure_shear": ((0, 2), (1, 2), (2, 2)),
-    "simple_shear": (),
-}
-_ZERO_STRESS: dict[str, tuple[tuple[int, int], ...]] = {
+# (row, col) pairs solved per mode: F[r, c] is unknown and sigma[r, c] is driven to zero
+_SOLVED: dict[str, tuple[tuple[int, int], ...]] = {
     "uniaxial": ((0, 1), (0, 2), (1, 1), (1, 2), (2, 2)),
     "equibiaxial": ((0, 2), (1, 2), (2, 2)),
     "pure_shear": ((0, 2), (1, 2), (2, 2)),
@@ -255,7 +249,7 @@ def drive(
         raise ValueError("time must be strictly increasing and start after t_start")
 
     ev = PointEvaluator(material, fiber, precision)
-    unknowns, zeros = _UNKNOWNS[mode], _ZERO_STRESS[mode]
+    unknowns = zeros = _SOLVED[mode]
     K0, G0 = material.small_strain_moduli()
     scale = max(G0, 1e-3 * K0, 1e-30)  # fluids (G0 = 0) are scaled by their bulk modulus
     h = 1e-7 if precision == "float64" else 3e-4
