@@ -49,6 +49,7 @@ Example
 
 
 import enum
+import math
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal
 
@@ -82,6 +83,32 @@ O_GAMMA = PRM_OFFSET + N_LAW
 O_EPS = O_GAMMA + 1
 O_CONV = O_GAMMA + 2
 """Convention code (0 seed, 1 uintah)."""
+
+
+@wp.func
+def eigen_spread(C: wp.mat33d):
+    """Largest minus smallest eigenvalue of a symmetric 3x3 matrix, in closed form.
+
+    Trigonometric solution of the characteristic cubic (Smith 1961): with
+    q = tr C / 3, B = C - q I, p = sqrt(tr(B^2) / 6) and r = det(B / p) / 2,
+    the eigenvalues are q + 2p cos(phi + 2 pi k / 3), phi = acos(r) / 3, so::
+
+        e_max - e_min = 2p (cos phi - cos(phi + 2 pi / 3)) = 2 sqrt(3) p sin(phi + pi / 3)
+
+    p is a sum of squares (no cancellation); near a double eigenvalue the
+    error of acos is O(sqrt(eps)) in phi but enters the spread with the factor
+    p cos(phi + pi/3): at most ~1e-7 of the spread in float64 (tests/materials/test_failure.py). Cheaper
+    than ``wp.eig3`` (Jacobi sweeps), which only the eigenvectors would need.
+    """
+    q = wp.trace(C) / wp.float64(3.0)
+    B = C - q * wp.identity(n=3, dtype=wp.float64)
+    p2 = (wp.ddot(B, B)) / wp.float64(6.0)
+    if p2 <= wp.float64(0.0):
+        return wp.float64(0.0)
+    p = wp.sqrt(p2)
+    r = wp.clamp(wp.determinant(B / p) * wp.float64(0.5), wp.float64(-1.0), wp.float64(1.0))
+    phi = wp.acos(r) / wp.float64(3.0)
+    return wp.float64(2.0 * math.sqrt(3.0)) * p * wp.sin(phi + wp.float64(math.pi / 3.0))
 
 
 def shear_strain_measure(F: np.ndarray, convention: str = "seed") -> float:
@@ -181,12 +208,7 @@ class TwoSurfaceFailure(Material):
         def criteria(F: t.mat33, lam: s, prm: wp.array(dtype=s)):
             F64 = wp.mat33d(F)
             C = wp.transpose(F64) * F64
-            Q = wp.mat33d()
-            d = wp.vec3d()
-            wp.eig3(C, Q, d)
-            cmax = wp.max(wp.max(d[0], d[1]), d[2])
-            cmin = wp.min(wp.min(d[0], d[1]), d[2])
-            E13 = wp.float64(0.5) * (cmax - cmin)  # E1 - E3
+            E13 = wp.float64(0.5) * eigen_spread(C)  # E1 - E3
             if prm[O_CONV] < s(0.5):
                 E13 = wp.float64(0.5) * E13
             return s(E13), lam - s(1.0)

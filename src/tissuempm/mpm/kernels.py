@@ -3,7 +3,7 @@
 Built per (precision, shape function) by :func:`transfer_kernels` and per
 (material law, precision) by :func:`material_kernels`. Every particle kernel works
 on the particle range ``[begin, begin + dim)`` (one chunk) and scatters into row
-``c`` of the chunk grid buffers; on CUDA there is one chunk and the adds are atomic.
+``c`` of the chunk grid buffers (its per-chunk scalars live at slot ``c * SLOT``); on CUDA there is one chunk and the adds are atomic.
 
 Grid storage: node ``(i, j, k)`` (``i = -GHOST .. nx + GHOST``) is stored at the flat
 index ``((i + GHOST) * NY + j + GHOST) * NZ + k + GHOST`` with ``NY = ny + 1 + 2 GHOST``
@@ -41,6 +41,11 @@ GRADIENT = wp.constant(2)
 """Gather: velocity gradient L and F <- (I + dt L) F."""
 POSITION = wp.constant(4)
 """Gather: x <- x + dt v_pic (after MOVE, possibly in a later pass: MUSL re-projects at the old x)."""
+SHARED = wp.constant(8)
+"""Gather with MOVE and GRADIENT: the gradient velocity is ``v_new`` (USL), read once."""
+SLOT = 16
+"""Elements between two chunks' entries of the per-chunk arrays (window bounds, first bad
+particle, signal speed): chunks update them from parallel threads, one cache line each."""
 # boundary kinds (per grid face, face = 2 axis + side)
 BC_NONE = wp.constant(0)
 BC_FIXED = wp.constant(1)
@@ -61,6 +66,7 @@ def transfer_kernels(t: WarpTypes, shape: str) -> SimpleNamespace:
         p2g=lambda flags: _p2g(t, shape, flags),
         grid=lambda flags, mode: _grid(t, flags, mode),
         g2p=lambda flags: _g2p(t, shape, flags),
+        reaction=_reaction(t, shape),
         rigid_speed=_rigid_speed(t),
         NP=STENCIL[shape],
     )
@@ -202,19 +208,28 @@ def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
                             b_cmom[n] += w * mvr
             return
         mv = m * v[p]
-        Vs = mat33()
+        Vt = mat33()
         bf = vec3()
         if wp.static(flags & FORCE):
-            Vs = (-vol0[p] * wp.determinant(F[p])) * stress[p]
+            Vt = wp.transpose((-vol0[p] * wp.determinant(F[p])) * stress[p])  # rows: columns of -V sigma
         if wp.static(flags & BODY):
             bf = m * body[p]
         fx = fixed[p] != 0
+        # tensor-product factorisation: with grad S = (dx_i wy_j wz_k, wx_i dy_j wz_k, wx_i wy_j dz_k),
+        # -V sigma grad S + S m b = wz_k fa_ij + dz_k fb_ij, fa_ij and fb_ij formed once per (i, j)
         for i in range(NP):
             for j in range(NP):
+                wij = wx[i] * wy[j]
+                fa = vec3()
+                fb = vec3()
+                if wp.static(flags & FORCE):
+                    fa = (dx[i] * wy[j]) * Vt[0] + (wx[i] * dy[j]) * Vt[1]
+                    fb = wij * Vt[2]
+                if wp.static(flags & BODY):
+                    fa = fa + wij * bf
                 for k in range(NP):
                     n = nb + i * sx + j * sy + k
-                    wyz = wy[j] * wz[k]
-                    w = wx[i] * wyz
+                    w = wij * wz[k]
                     if wp.static(flags & MASS):
                         b_m[n] += w * m
                         if fx:
@@ -222,8 +237,7 @@ def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
                     if wp.static(flags & MOMENTUM):
                         b_mom[n] += w * mv
                     if wp.static(flags & FORCE):
-                        grad = vec3(dx[i] * wyz, wx[i] * dy[j] * wz[k], wx[i] * wy[j] * dz[k])
-                        b_f[n] += Vs * grad + w * bf
+                        b_f[n] += wz[k] * fa + dz[k] * fb
 
     return p2g
 
@@ -297,7 +311,7 @@ def _grid(t: WarpTypes, flags: int, mode: int) -> Any:
             scm = s(0.0)
             scmom = vec3()
             for c in range(n_chunks):
-                if n >= lo[c] and n <= hi[c]:
+                if n >= lo[c * SLOT] and n <= hi[c * SLOT]:
                     sm += b_m[c, n]
                     scm += b_cm[c, n]
                     scmom += b_cmom[c, n]
@@ -307,13 +321,13 @@ def _grid(t: WarpTypes, flags: int, mode: int) -> Any:
         if wp.static(flags & MOMENTUM):
             smom = vec3()
             for c in range(n_chunks):
-                if n >= lo[c] and n <= hi[c]:
+                if n >= lo[c * SLOT] and n <= hi[c * SLOT]:
                     smom += b_mom[c, n]
             g_mom[n] = smom
         if wp.static(flags & FORCE):
             sf = vec3()
             for c in range(n_chunks):
-                if n >= lo[c] and n <= hi[c]:
+                if n >= lo[c * SLOT] and n <= hi[c * SLOT]:
                     sf += b_f[c, n]
             g_f[n] = sf
         NZ = dims[2] + 1 + 2 * G
@@ -359,18 +373,14 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
         vpic_p: wp.array(dtype=vec3),
         F: wp.array(dtype=mat33),
         L: wp.array(dtype=mat33),
-        mass: wp.array(dtype=s),
         size: wp.array(dtype=vec3),
         material: wp.array(dtype=wp.int32),
         fixed: wp.array(dtype=wp.int32),
         mat_rigid: wp.array(dtype=wp.int32),
         rigid_vel: wp.array(dtype=vec3),
-        preact: wp.array(dtype=vec3),
         v_old: wp.array(dtype=vec3),
         v_new: wp.array(dtype=vec3),
         v_grad: wp.array(dtype=vec3),
-        react: wp.array(dtype=vec3),
-        g_cm: wp.array(dtype=s),
         origin: vec3,
         inv_h: s,
         dims: wp.vec3i,
@@ -385,8 +395,7 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
         """Grid to particle (``flags`` of MOVE, GRADIENT, POSITION; see the module constants).
 
         MOVE:     v_p <- flip (v_p + sum S (v_i^new - v_i^old)) + (1 - flip) sum S v_i^new,
-                  v_pic = sum S v_i^new, reaction share of constrained particles
-                  sum S m_p / m_i^c R_i.
+                  v_pic = sum S v_i^new (``reaction`` gives the constrained particles' reaction share).
         GRADIENT: L_p = sum v_i (x) grad S (v_i = ``v_grad``), F <- (I + dt L) F, check J > 0.
         POSITION: x <- x + dt v_pic, check that the particle is inside the grid.
         Rigid particles move with their material's velocity and keep F; fixed ones stay put.
@@ -395,35 +404,50 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
         mat = material[p]
         xp = x[p]
         rigid = mat_rigid[mat] != 0
-        constrained = rigid or fixed[p] != 0
         if wp.static(flags & (MOVE | GRADIENT)):
             b, wx, wy, wz, dx, dy, dz = stencil(xp, size[p], origin, inv_h, dims)
             sx, sy = strides(dims)
             nb = b[0] * sx + b[1] * sy + b[2]
             vpic = vec3()
             dv = vec3()
-            rs = vec3()
             Lp = mat33()
-            m = mass[p]
+            c0 = vec3()
+            c1 = vec3()
+            c2 = vec3()
+            # tensor-product factorisation: sums over k first, then weighted by the (i, j) factors
             for i in range(NP):
                 for j in range(NP):
+                    wij = wx[i] * wy[j]
+                    sv = vec3()
+                    sdv = vec3()
+                    sg = vec3()
+                    sd = vec3()
                     for k in range(NP):
                         n = nb + i * sx + j * sy + k
-                        wyz = wy[j] * wz[k]
-                        w = wx[i] * wyz
                         if wp.static(flags & MOVE):
                             vn = v_new[n]
-                            vpic += w * vn
-                            dv += w * (vn - v_old[n])
-                            if constrained:
-                                cm = g_cm[n]
-                                if cm > s(0.0):
-                                    rs += (w * m / cm) * react[n]
+                            sv += wz[k] * vn
+                            sdv += wz[k] * (vn - v_old[n])
                         if wp.static(flags & GRADIENT):
-                            grad = vec3(dx[i] * wyz, wx[i] * dy[j] * wz[k], wx[i] * wy[j] * dz[k])
-                            Lp += wp.outer(v_grad[n], grad)
+                            vg = vec3()
+                            if wp.static(flags & SHARED):
+                                vg = vn
+                            else:
+                                vg = v_grad[n]
+                                sg += wz[k] * vg
+                            sd += dz[k] * vg
+                    if wp.static(flags & SHARED):
+                        sg = sv
+                    if wp.static(flags & MOVE):
+                        vpic += wij * sv
+                        dv += wij * sdv
+                    if wp.static(flags & GRADIENT):
+                        c0 += (dx[i] * wy[j]) * sg
+                        c1 += (wx[i] * dy[j]) * sg
+                        c2 += wij * sd
+            if wp.static(flags & GRADIENT):
+                Lp = wp.matrix_from_cols(c0, c1, c2)  # L = sum v_i (x) grad S_i
             if wp.static(flags & MOVE):
-                preact[p] = rs
                 if rigid:
                     vpic = rigid_vel[mat]
                     v[p] = vpic
@@ -452,6 +476,51 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
                 wp.atomic_min(bad, c, p)
 
     return g2p
+
+
+@functools.cache
+def _reaction(t: WarpTypes, shape: str) -> Any:
+    s, vec3 = t.scalar, t.vec3
+    h = _helpers(t, shape)
+    stencil, strides, NP = h.stencil, h.strides, h.NP
+
+    @wp.kernel(module="unique")
+    def reaction(
+        x: wp.array(dtype=vec3),
+        mass: wp.array(dtype=s),
+        size: wp.array(dtype=vec3),
+        material: wp.array(dtype=wp.int32),
+        fixed: wp.array(dtype=wp.int32),
+        mat_rigid: wp.array(dtype=wp.int32),
+        react: wp.array(dtype=vec3),
+        g_cm: wp.array(dtype=s),
+        origin: vec3,
+        inv_h: s,
+        dims: wp.vec3i,
+        begin: int,
+        preact: wp.array(dtype=vec3),
+    ):
+        """Reaction share of a rigid or fixed particle, sum_i S_ip m_p / m_i^c R_i (R from the grid
+        UPDATE pass, m^c the constraint mass); a separate pass, run only when the model has
+        constraints, keeps the 27-node loop out of the gather."""
+        p = begin + wp.tid()
+        if mat_rigid[material[p]] == 0 and fixed[p] == 0:
+            return
+        b, wx, wy, wz, dx, dy, dz = stencil(x[p], size[p], origin, inv_h, dims)
+        sx, sy = strides(dims)
+        nb = b[0] * sx + b[1] * sy + b[2]
+        m = mass[p]
+        rs = vec3()
+        for i in range(NP):
+            for j in range(NP):
+                for k in range(NP):
+                    n = nb + i * sx + j * sy + k
+                    cm = g_cm[n]
+                    if cm > s(0.0):
+                        rs += (wx[i] * wy[j] * wz[k] * m / cm) * react[n]
+        preact[p] = rs
+
+    return reaction
 
 
 @functools.cache

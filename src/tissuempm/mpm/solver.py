@@ -113,7 +113,7 @@ class ExplicitSolver:
         self._body: wp.array | None = None
         self._pool = ThreadPoolExecutor(max_workers=self.threads) if self.threads > 1 else None
         self._loaded: set[int] = set()
-        for k in [self.kern.bounds, self.kern.rigid_speed] + [k for _, _, mk, _ in self.laws for k in (mk.stress, mk.speed)]:
+        for k in [self.kern.bounds, self.kern.rigid_speed, self.kern.reaction] + [k for _, _, mk, _ in self.laws for k in (mk.stress, mk.speed)]:
             self._ready(k)
 
     # ------------------------------------------------------------------------------ setup
@@ -192,12 +192,16 @@ class ExplicitSolver:
         self._ensure_buffers(len(st.chunks))
         rigid = np.array([self.model.is_rigid(i) for i in range(len(self.model.materials))])
         deform = ~rigid[np.asarray(arrays["material"])]
+        st.constrained = bool(np.any(~deform) or np.any(np.asarray(arrays["fixed"]) != 0))
         m = np.asarray(arrays["mass"], dtype=float)
         st.min_node_mass = self.config.min_node_mass_fraction * (float(m[deform].min()) if deform.any() else 1.0)
-        st.lo = wp.zeros(len(st.chunks), dtype=int, device=self.device)
-        st.hi = wp.zeros(len(st.chunks), dtype=int, device=self.device)
-        st.bad = wp.full(len(st.chunks), st.n, dtype=int, device=self.device)
-        st.speed = wp.zeros(len(st.chunks), dtype=self.t.scalar, device=self.device)
+        # one slot per chunk, K.SLOT elements apart: chunks run in parallel threads and update
+        # their slot once per particle, so adjacent slots would share a cache line
+        slots = len(st.chunks) * K.SLOT
+        st.lo = wp.zeros(slots, dtype=int, device=self.device)
+        st.hi = wp.zeros(slots, dtype=int, device=self.device)
+        st.bad = wp.full(slots, st.n, dtype=int, device=self.device)
+        st.speed = wp.zeros(slots, dtype=self.t.scalar, device=self.device)
         return st
 
     # ------------------------------------------------------------------------------ helpers
@@ -246,8 +250,8 @@ class ExplicitSolver:
         def task(c: int, b: int, e: int) -> Callable[[], None]:
             def run() -> None:
                 for i, _, mk, prm in self.laws:
-                    self._launch(mk.speed, e - b, [i, prm, st.F, st.fiber, st.history, st.v, st.material, b, c, st.speed])
-                self._launch(self.kern.rigid_speed, e - b, [st.v, st.material, self.mat_rigid, b, c, st.speed])
+                    self._launch(mk.speed, e - b, [i, prm, st.F, st.fiber, st.history, st.v, st.material, b, c * K.SLOT, st.speed])
+                self._launch(self.kern.rigid_speed, e - b, [st.v, st.material, self.mat_rigid, b, c * K.SLOT, st.speed])
 
             return run
 
@@ -291,13 +295,13 @@ class ExplicitSolver:
 
         def task(c: int, b: int, e: int) -> Callable[[], None]:
             def run() -> None:
-                rows = self._rows[c]
+                rows, slot = self._rows[c], c * K.SLOT
                 if self.is_cpu:
                     lo, hi = st.lo.numpy(), st.hi.numpy()
                     if flags & K.MASS:
-                        lo[c], hi[c] = self.n_nodes, -1
-                        self._launch(kern.bounds, e - b, [st.x, st.size, *common, b, c, st.lo, st.hi])
-                    start, count = int(lo[c]), int(hi[c]) - int(lo[c]) + 1
+                        lo[slot], hi[slot] = self.n_nodes, -1
+                        self._launch(kern.bounds, e - b, [st.x, st.size, *common, b, slot, st.lo, st.hi])
+                    start, count = int(lo[slot]), int(hi[slot]) - int(lo[slot]) + 1
                 else:
                     start, count = 0, self.n_nodes
                 self._launch(zero, count, [start, *rows])
@@ -318,7 +322,7 @@ class ExplicitSolver:
     def _solve_grid(self, st: State, flags: int, mode: int, dt: float) -> None:
         """Reduce the chunk buffers and solve the nodes of the active window (threads split the nodes)."""
         if self.is_cpu:
-            start, stop = int(st.lo.numpy().min()), int(st.hi.numpy().max()) + 1
+            start, stop = int(st.lo.numpy()[:: K.SLOT].min()), int(st.hi.numpy()[:: K.SLOT].max()) + 1
         else:
             start, stop = 0, self.n_nodes
         edges = np.linspace(start, stop, self.threads + 1).round().astype(int)
@@ -340,17 +344,30 @@ class ExplicitSolver:
     def _gather(self, st: State, flags: int, dt: float, v_grad: wp.array) -> None:
         """G2P of the parts ``flags`` (MOVE, GRADIENT, POSITION)."""
         s = self.t.scalar
+        if flags & K.MOVE and flags & K.GRADIENT and v_grad is self.g_vnew:
+            flags |= K.SHARED
         g2p = self._ready(self.kern.g2p(flags))
 
+        reaction = flags & K.MOVE and st.constrained
+
         def task(c: int, b: int, e: int) -> Callable[[], None]:
-            return lambda: self._launch(
-                g2p,
-                e - b,
-                [st.x, st.v, st.vpic, st.F, st.L, st.mass, st.size, st.material, st.fixed, self.mat_rigid,
-                 self.rigid_vel, st.reaction, self.g_vold, self.g_vnew, v_grad, self.g_react, self.g_cm,
-                 self.origin, s(1.0 / self.h), self.dims, self.lower, self.upper, b, c, s(dt),
-                 s(self.config.flip), st.bad],
-            )  # fmt: skip
+            def run() -> None:
+                if reaction:  # before MOVE: the stencil is at the old position
+                    self._launch(
+                        self.kern.reaction,
+                        e - b,
+                        [st.x, st.mass, st.size, st.material, st.fixed, self.mat_rigid, self.g_react, self.g_cm,
+                         self.origin, s(1.0 / self.h), self.dims, b, st.reaction],
+                    )  # fmt: skip
+                self._launch(
+                    g2p,
+                    e - b,
+                    [st.x, st.v, st.vpic, st.F, st.L, st.size, st.material, st.fixed, self.mat_rigid,
+                     self.rigid_vel, self.g_vold, self.g_vnew, v_grad, self.origin, s(1.0 / self.h), self.dims,
+                     self.lower, self.upper, b, c * K.SLOT, s(dt), s(self.config.flip), st.bad],
+                )  # fmt: skip
+
+            return run
 
         self._parallel([task(c, b, e) for c, (b, e) in enumerate(st.chunks)])
 
@@ -365,7 +382,7 @@ class ExplicitSolver:
                         mk.stress,
                         e - b,
                         [i, prm, st.F, st.L, st.fiber, st.history, st.history_next, st.material, st.stress,
-                         st.volume0, st.work, s(dt), b, c, st.bad],
+                         st.volume0, st.work, s(dt), b, c * K.SLOT, st.bad],
                     )  # fmt: skip
 
             return run
@@ -513,7 +530,7 @@ class ExplicitSolver:
         gm = self.g_m.numpy()
         if not self.is_cpu:
             return float(gm.sum())
-        return float(gm[int(st.lo.numpy().min()) : int(st.hi.numpy().max()) + 1].sum())
+        return float(gm[int(st.lo.numpy()[:: K.SLOT].min()) : int(st.hi.numpy()[:: K.SLOT].max()) + 1].sum())
 
     def close(self) -> None:
         """Shut the thread pool down."""

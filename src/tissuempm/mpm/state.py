@@ -71,6 +71,8 @@ class State:
         Steps taken.
     dt_ref : float or None
         First stable time step [s] (reference for the dt-collapse check).
+    constrained : bool
+        Whether any particle is rigid or fixed (then reaction shares are gathered).
     """
 
     def __init__(self) -> None:
@@ -79,6 +81,7 @@ class State:
         self.dt_ref: float | None = None
         self.chunks: list[tuple[int, int]] = []
         self.min_node_mass = 0.0
+        self.constrained = False
 
     @property
     def n(self) -> int:
