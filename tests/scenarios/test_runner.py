@@ -5,11 +5,11 @@ import math
 
 import numpy as np
 import pytest
+from scenario_testlib import assert_restart_is_exact, scenario
 from typer.testing import CliRunner
 
 from tissuempm.io import HistoryLog, read_checkpoint, read_pvd
 from tissuempm.scenarios.runner import CHECKPOINT, Runner
-from tissuempm.scenarios.schema import Scenario
 
 # A 4 x 4 x 4 mm neo-Hookean block (8 particles per cell) thrown at 1 m/s against a fixed
 # wall: it hits, compresses and rebounds within 2 ms (c = 7.2 m/s, h / c = 0.14 ms).
@@ -51,18 +51,10 @@ checkpoint_interval = "0.4 ms"
 """
 
 
-def scenario(text: str = BLOCK, **run) -> Scenario:
-    import tomllib
-
-    data = tomllib.loads(text)
-    data["run"].update(run)
-    return Scenario.from_dict(data)
-
-
 @pytest.fixture(scope="module")
 def full_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("full")
-    result = Runner(scenario(), out).run()
+    result = Runner(scenario(BLOCK), out).run()
     return result, out
 
 
@@ -91,27 +83,7 @@ def test_completed_run_writes_outputs(full_run):
 
 def test_restart_ends_in_the_same_state(full_run, tmp_path):
     _, full_out = full_run
-
-    class Crash(Exception):
-        pass
-
-    def crash_after_steps(p):
-        if p.step == 23:  # between the checkpoints at about 0.4 and 0.8 ms
-            raise Crash
-
-    with pytest.raises(Crash):
-        Runner(scenario(), tmp_path).run(progress=crash_after_steps)
-    _, meta = read_checkpoint(tmp_path / CHECKPOINT)
-    assert 0 < meta["step"] < 23
-    result = Runner(scenario(), tmp_path).run(restart=True)
-    assert result.status == "completed" and result.summary["restarted_from"] == pytest.approx(meta["time"])
-    a, _ = read_checkpoint(full_out / CHECKPOINT)
-    b, _ = read_checkpoint(tmp_path / CHECKPOINT)
-    assert a.keys() == b.keys()
-    for key in a:
-        assert np.array_equal(a[key], b[key], equal_nan=True), key
-    assert read_pvd(tmp_path / "particles.pvd") == read_pvd(full_out / "particles.pvd")
-    assert (tmp_path / "history.csv").read_text() == (full_out / "history.csv").read_text()
+    assert_restart_is_exact(BLOCK, full_out, tmp_path, crash_step=23)  # between the checkpoints at ~0.4 and 0.8 ms
 
 
 def test_restart_can_extend_but_not_change_the_problem(full_run, tmp_path):
@@ -119,7 +91,7 @@ def test_restart_can_extend_but_not_change_the_problem(full_run, tmp_path):
 
     _, full_out = full_run
     shutil.copytree(full_out, tmp_path, dirs_exist_ok=True)
-    longer = Runner(scenario(end_time="2.5 ms"), tmp_path).run(restart=True)
+    longer = Runner(scenario(BLOCK, end_time="2.5 ms"), tmp_path).run(restart=True)
     assert longer.status == "completed" and longer.time >= 2.5e-3
     changed = BLOCK.replace('C10 = "5 kPa"', 'C10 = "6 kPa"')
     from tissuempm.io import CheckpointError
@@ -127,7 +99,7 @@ def test_restart_can_extend_but_not_change_the_problem(full_run, tmp_path):
     with pytest.raises(CheckpointError, match="different scenario"):
         Runner(scenario(changed), tmp_path).run(restart=True)
     with pytest.raises(CheckpointError, match="no checkpoint"):
-        Runner(scenario(), tmp_path / "empty").run(restart=True)
+        Runner(scenario(BLOCK), tmp_path / "empty").run(restart=True)
 
 
 # The gel flies at 50 m/s towards the open upper x face and leaves the grid.

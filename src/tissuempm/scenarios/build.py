@@ -1,19 +1,87 @@
-"""Scenario -> solver inputs: :class:`SolverConfig`, :class:`Model` and :class:`ParticleData`.
+"""Scenario -> solver inputs: :class:`SolverConfig`, :class:`Model`, :class:`ParticleData`
+and the time-varying loads (:class:`Loading`, the solver's ``control``).
 
 Bodies are seeded in file order; a point already claimed by an earlier body is
 skipped, so overlapping bodies never place two particles at one spot. Fiber
 directions come from each body's fiber field (default: uniform along x).
 Particles inside a ``[[fixed]]`` region (of the listed bodies, or all) are held
 at zero velocity.
+
+A load with an amplitude a(t) enters the config and model at its t = 0 value
+(gravity g a(0), velocity v a(0)); :class:`Loading` gives its value at every
+later step.
 """
 
-from dataclasses import dataclass
+import dataclasses
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from tissuempm.mpm import Grid, GridBoundary, Model, ParticleData, SolverConfig
+from tissuempm.mpm import Control, Grid, GridBoundary, Model, ParticleData, SolverConfig
+from tissuempm.scenarios.amplitude import Amplitude
 from tissuempm.scenarios.geometry import Shape, UniformFiber, Union, seed
 from tissuempm.scenarios.schema import Scenario, ScenarioError
+
+Vec3 = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Loading:
+    """Loads scaled by amplitude curves: a nominal vector v [SI] and its curve a(t) each.
+
+    Attributes
+    ----------
+    gravity
+        Gravity g [m/s^2] and its amplitude (``solver.gravity_amplitude``), or None (constant gravity).
+    rigid_velocity
+        Material index -> (velocity [m/s], amplitude) of rigid drivers with an amplitude.
+    boundary_velocity
+        Boundary index (into ``Model.boundaries``) -> (velocity [m/s], amplitude).
+
+    :meth:`at` gives the :class:`Control` (each load v a(t)) at a time. The runner evaluates
+    it at the middle of each step, t + dt/2: the midpoint rule integrates a linear segment
+    exactly, so a driver's or face's displacement and the impulse of gravity over a step equal
+    the integral of the curve (an error O(dt^2) remains in steps containing a corner of the
+    curve), where the start of the step would lag by v dt/2 after every ramp. The loads depend
+    on the time only, so a run restarted from a checkpoint applies the same loads.
+    """
+
+    gravity: tuple[Vec3, Amplitude] | None = None
+    rigid_velocity: dict[int, tuple[Vec3, Amplitude]] = field(default_factory=dict)
+    boundary_velocity: dict[int, tuple[Vec3, Amplitude]] = field(default_factory=dict)
+
+    def at(self, time: float) -> Control:
+        """The loads at ``time`` [s]; loads without an amplitude keep their model and config values."""
+
+        def scaled(load: tuple[Vec3, Amplitude]) -> Vec3:
+            vector, amplitude = load
+            a = amplitude(time)
+            return (a * vector[0], a * vector[1], a * vector[2])
+
+        return Control(
+            gravity=None if self.gravity is None else scaled(self.gravity),
+            rigid_velocity={i: scaled(load) for i, load in self.rigid_velocity.items()},
+            boundary_velocity={i: scaled(load) for i, load in self.boundary_velocity.items()},
+        )
+
+
+def loading(scenario: Scenario) -> Loading:
+    """The amplitude-scaled loads of ``scenario`` (gravity, rigid drivers, grid faces)."""
+    sc = scenario
+    g_amp = sc.solver.gravity_amplitude
+    return Loading(
+        gravity=None if g_amp is None else (sc.solver.gravity, sc.amplitude(g_amp)),
+        rigid_velocity={
+            i: (rigid.velocity, sc.amplitude(rigid.amplitude))
+            for i, rigid in sc.rigid_drivers().items()
+            if rigid.amplitude is not None
+        },
+        boundary_velocity={
+            i: (bc.velocity, sc.amplitude(bc.amplitude))
+            for i, bc in enumerate(sc.boundaries)
+            if bc.amplitude is not None
+        },
+    )
 
 
 @dataclass
@@ -28,6 +96,8 @@ class Problem:
         Name of each material index (``[materials.<name>]`` order).
     body
         Index of the ``[[body]]`` each particle came from, (n,) int.
+    loading
+        The time-varying loads: ``loading.at(t)`` is the solver's ``control`` at time t [s].
     """
 
     config: SolverConfig
@@ -35,11 +105,13 @@ class Problem:
     particles: ParticleData
     material_names: list[str]
     body: np.ndarray
+    loading: Loading
 
 
 def solver_config(scenario: Scenario, device: str = "cpu") -> SolverConfig:
-    """The :class:`SolverConfig` of ``[solver]`` on ``device``."""
+    """The :class:`SolverConfig` of ``[solver]`` on ``device`` (gravity at t = 0)."""
     s = scenario.solver
+    start = loading(scenario).at(0.0)
     return SolverConfig(
         shape=s.shape,
         transfer=s.transfer,
@@ -48,18 +120,25 @@ def solver_config(scenario: Scenario, device: str = "cpu") -> SolverConfig:
         precision=s.precision,
         device=device,
         threads=s.threads,
-        gravity=s.gravity,
+        gravity=s.gravity if start.gravity is None else start.gravity,
         damping=s.damping,
         dt_max=s.dt_max,
     )
 
 
 def build_model(scenario: Scenario) -> Model:
-    """Grid, materials and grid boundaries of ``scenario``."""
+    """Grid, materials and grid boundaries of ``scenario`` (driver and face velocities at t = 0)."""
     g = scenario.grid
     grid = Grid(origin=g.lower, cell_size=g.cell_size, shape=g.cells)
-    boundaries = [GridBoundary(b.axis_index, b.side, b.kind, b.velocity) for b in scenario.boundaries]
-    return Model(grid, scenario.build_materials(), boundaries)
+    start = loading(scenario).at(0.0)
+    boundaries = [
+        GridBoundary(b.axis_index, b.side, b.kind, start.boundary_velocity.get(i, b.velocity))
+        for i, b in enumerate(scenario.boundaries)
+    ]
+    materials = scenario.build_materials()
+    for i, velocity in start.rigid_velocity.items():
+        materials[i] = dataclasses.replace(materials[i], velocity=velocity)
+    return Model(grid, materials, boundaries)
 
 
 def seed_particles(scenario: Scenario, model: Model) -> tuple[ParticleData, np.ndarray]:
@@ -100,4 +179,4 @@ def build(scenario: Scenario, device: str = "cpu") -> Problem:
     """Everything the solver needs to run ``scenario`` on ``device``."""
     model = build_model(scenario)
     particles, body = seed_particles(scenario, model)
-    return Problem(solver_config(scenario, device), model, particles, list(scenario.materials), body)
+    return Problem(solver_config(scenario, device), model, particles, list(scenario.materials), body, loading(scenario))

@@ -17,8 +17,10 @@ Restart (``restart=True``) reads ``checkpoint.h5``, checks that it belongs to th
 same physical problem (a hash of every section except ``[run]``, so a run may be
 extended by raising ``run.end_time``), drops the frames written after it and
 continues. The checkpoint holds the complete particle state and the loop's
-counters, and the step is a deterministic function of the state, so a restarted
-run ends in the same state as an uninterrupted one.
+counters, and the step is a deterministic function of the state (amplitude-scaled
+loads, :class:`~tissuempm.scenarios.build.Loading`, are evaluated at the middle of
+each step from its time and time step), so a restarted run ends in the same state
+as an uninterrupted one.
 
 A run that goes unstable (:class:`tissuempm.mpm.InstabilityError`: NaN, J <= 0,
 a particle leaving the grid, a collapsing time step) stops with status
@@ -189,7 +191,8 @@ class Runner:
                 if run.max_steps is not None and state.step >= run.max_steps:
                     status = "max_steps"
                     break
-                dt = self.solver.step(state)
+                dt = self.solver.stable_dt(state)
+                self.solver.step(state, dt, self.problem.loading.at(state.time + 0.5 * dt))  # mid-step loads
                 frame_due = state.time >= next_frame * (1.0 - 1e-12)
                 ckpt_due = state.time >= next_ckpt * (1.0 - 1e-12)
                 if frame_due or ckpt_due:

@@ -8,7 +8,13 @@ key by its path in the file (``solver.cfl``, ``body[0].shape.radius``) with the
 valid range.
 
 Sections: ``[solver]``, ``[grid]``, ``[materials.<name>]``, ``[[body]]``,
-``[[boundary]]``, ``[[fixed]]`` and ``[run]``.
+``[[boundary]]``, ``[[fixed]]``, ``[amplitudes.<name>]`` and ``[run]``.
+
+Time-varying loads: gravity (``solver.gravity_amplitude``), a rigid driver's
+velocity (``materials.<name>.amplitude``) and a grid face's velocity
+(``boundary[i].amplitude``) are their nominal value times an amplitude curve
+a(t) (:class:`tissuempm.scenarios.amplitude.Amplitude`), given by the name of an
+``[amplitudes.<name>]`` table or inline as ``[[time, factor], ...]``.
 """
 
 import math
@@ -16,9 +22,21 @@ import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Discriminator,
+    Field,
+    Tag,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 
 from tissuempm.scenarios import geometry
+from tissuempm.scenarios.amplitude import Amplitude
 from tissuempm.scenarios.units import UnitError, parse_quantity
 
 
@@ -50,6 +68,88 @@ class Section(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
 
 
+# ---------------------------------------------------------------------------- amplitudes
+
+
+def _pair(value: Any) -> Any:
+    if not (isinstance(value, (list, tuple)) and len(value) == 2):
+        raise ValueError("must be a [time, factor] pair")
+    return value
+
+
+class AmplitudeSpec(Section):
+    """``[amplitudes.<name>]`` (or an inline table): a piecewise-linear load factor a(t).
+
+    ``points`` are ``[time, factor]`` pairs; a plain-number time is in
+    ``time_unit`` (default s), a string carries its own unit (``"2 ms"``); a
+    factor is a number (or a percentage, ``"50 %"``). After validation ``points``
+    hold seconds; ``time_unit`` only records how the file wrote them and is left
+    out of dumps (``scenario.json``, the restart hash).
+    """
+
+    time_unit: Annotated[str, Field(exclude=True)] = "s"
+    points: Annotated[list[Annotated[tuple[Any, Any], BeforeValidator(_pair)]], Field(min_length=1)]
+
+    @field_validator("time_unit")
+    @classmethod
+    def _time_unit(cls, unit: str) -> str:
+        try:
+            parse_quantity(f"1 {unit}", "s")
+        except UnitError:
+            raise ValueError(f"{unit!r} is not a unit of time: use s, ms, us, min or h") from None
+        return unit
+
+    @field_validator("points")
+    @classmethod
+    def _points(cls, points: list[tuple[Any, Any]], info: ValidationInfo) -> list[tuple[float, float]]:
+        unit = info.data.get("time_unit")
+        if unit is None:  # time_unit is invalid and reported on its own
+            return points
+        scale = parse_quantity(f"1 {unit}", "s")
+        out = []
+        for k, (t, f) in enumerate(points):
+            try:
+                time = parse_quantity(t, unit) * scale
+            except UnitError as e:
+                raise ValueError(f"point {k}: time {e}") from None
+            try:
+                factor = parse_quantity(f, "1")
+            except UnitError:
+                raise ValueError(f"point {k}: factor {f!r} must be a number (or a percentage such as '50 %')") from None
+            out.append((time, factor))
+        Amplitude(tuple(t for t, _ in out), tuple(f for _, f in out))  # raises naming the bad point
+        return out
+
+    def build(self) -> Amplitude:
+        return Amplitude(tuple(t for t, _ in self.points), tuple(f for _, f in self.points))
+
+
+def _amplitude_form(value: Any) -> str | None:
+    if isinstance(value, str):
+        return "amplitude-name"
+    if isinstance(value, (list, dict, AmplitudeSpec)):
+        return "amplitude-table"
+    return None
+
+
+def _inline_points(value: Any) -> Any:
+    return {"points": value} if isinstance(value, list) else value
+
+
+AmplitudeRef = Annotated[
+    Annotated[str, Tag("amplitude-name")]
+    | Annotated[AmplitudeSpec, BeforeValidator(_inline_points), Tag("amplitude-table")],
+    Discriminator(
+        _amplitude_form,
+        custom_error_type="amplitude",
+        custom_error_message="must be the name of an [amplitudes] table, a list of [time, factor] points "
+        "or a table with points (and time_unit)",
+    ),
+]
+"""An amplitude where it is applied: the ``"name"`` of ``[amplitudes.name]``, inline points
+``[[t, f], ...]`` or an inline table ``{points = ..., time_unit = ...}``."""
+
+
 # ---------------------------------------------------------------------------- [solver]
 
 
@@ -63,6 +163,7 @@ class SolverSection(Section):
     precision: Literal["float64", "float32"] = "float64"
     threads: Annotated[int, Field(ge=1, le=1024)] | None = None
     gravity: tuple[Acceleration, Acceleration, Acceleration] = (0.0, 0.0, 0.0)
+    gravity_amplitude: AmplitudeRef | None = None
     damping: Annotated[quantity("1/s"), Field(ge=0.0)] = 0.0
     dt_max: Annotated[Time, Field(gt=0.0)] | None = None
 
@@ -99,18 +200,23 @@ class BoundarySection(Section):
 
     ``fixed``: v = 0; ``slip``: normal velocity = ``velocity[axis]`` (0: symmetry
     plane; non-zero: moving frictionless wall), tangential free; ``velocity``:
-    v = ``velocity`` (all components).
+    v = ``velocity`` (all components). ``amplitude`` scales ``velocity`` in time.
     """
 
     axis: Literal["x", "y", "z"]
     side: Literal["lower", "upper"]
     kind: Literal["fixed", "slip", "velocity"]
     velocity: Velocity = (0.0, 0.0, 0.0)
+    amplitude: AmplitudeRef | None = None
 
     @model_validator(mode="after")
     def _no_velocity_when_fixed(self) -> "BoundarySection":
         if self.kind == "fixed" and any(v != 0.0 for v in self.velocity):
             raise ValueError("a 'fixed' face takes no velocity: use kind = 'velocity' or 'slip'")
+        if self.kind == "fixed" and self.amplitude is not None:
+            raise ValueError(
+                "a 'fixed' face takes no amplitude (it has no velocity to scale): use kind = 'velocity' or 'slip'"
+            )
         return self
 
     @property
@@ -223,7 +329,7 @@ class RotatingFiberSpec(Section):
 
 
 FiberSpec = Annotated[UniformFiberSpec | RotatingFiberSpec, Field(discriminator="type")]
-_TAGS = {"box", "sphere", "cylinder", "union", "difference", "uniform", "rotating"}
+_TAGS = {"box", "sphere", "cylinder", "union", "difference", "uniform", "rotating", "amplitude-name", "amplitude-table"}
 
 
 # ---------------------------------------------------------------------------- [[body]], [[fixed]]
@@ -288,10 +394,12 @@ def _convert_material(name: str, data: dict[str, Any]) -> Any:
     where = f"materials.{name}"
     try:
         if data.get("kind") == "rigid":
-            return RigidSpec.model_validate({k: v for k, v in data.items() if k != "kind"}).build()
+            return _rigid_spec(data).build()
         return _law(data)
     except ValidationError as e:
-        raise ValueError("; ".join(f"{where}.{_path(err['loc'])}: {err['msg']}" for err in e.errors())) from None
+        raise ValueError(
+            "; ".join(f"{where}.{_path(err['loc'])}: {err['msg'].removeprefix('Value error, ')}" for err in e.errors())
+        ) from None
     except (ParameterError, KeyError, UnitError, TypeError) as e:
         msg = e.args[0] if e.args else str(e)
         raise ValueError(f"{where}: {msg}") from None
@@ -338,15 +446,24 @@ def _material_values(cls: type, data: dict[str, Any]) -> dict[str, Any]:
 
 
 class RigidSpec(Section):
-    """``kind = "rigid"``: a driver moving at a prescribed velocity, perfectly bonded to the tissue."""
+    """``kind = "rigid"``: a driver moving at a prescribed velocity, perfectly bonded to the tissue.
+
+    ``amplitude`` scales ``velocity`` in time (:meth:`build` gives the nominal velocity).
+    """
 
     velocity: Velocity = (0.0, 0.0, 0.0)
     density: Annotated[Density, Field(gt=0.0)] = 7800.0
+    amplitude: AmplitudeRef | None = None
 
     def build(self) -> Any:
         from tissuempm.mpm import RigidMaterial
 
         return RigidMaterial(velocity=self.velocity, density=self.density)
+
+
+def _rigid_spec(data: dict[str, Any]) -> RigidSpec:
+    """The :class:`RigidSpec` of a ``kind = "rigid"`` material table."""
+    return RigidSpec.model_validate({k: v for k, v in data.items() if k != "kind"})
 
 
 # ---------------------------------------------------------------------------- the scenario
@@ -363,6 +480,7 @@ class Scenario(Section):
     bodies: Annotated[list[BodySection], Field(alias="body", min_length=1)]
     boundaries: Annotated[list[BoundarySection], Field(alias="boundary")] = []
     fixed: list[FixedSection] = []
+    amplitudes: dict[str, AmplitudeSpec] = {}
     run: RunSection
 
     @field_validator("materials")
@@ -390,7 +508,29 @@ class Scenario(Section):
             if (bc.axis, bc.side) in seen:
                 raise ValueError(f"boundary[{i}]: a second condition on the {bc.side} {bc.axis} face")
             seen.add((bc.axis, bc.side))
+        for where, ref in self._amplitude_uses():
+            if isinstance(ref, str) and ref not in self.amplitudes:
+                raise ValueError(
+                    f"{where} = {ref!r} is not defined: choose one of {list(self.amplitudes)} "
+                    "(an [amplitudes.<name>] table) or give the points inline"
+                )
         return self
+
+    def _amplitude_uses(self) -> list[tuple[str, AmplitudeSpec | str]]:
+        """(key path, amplitude) of every amplitude the scenario applies."""
+        names = list(self.materials)
+        uses = [("solver.gravity_amplitude", self.solver.gravity_amplitude)]
+        uses += [(f"materials.{names[i]}.amplitude", spec.amplitude) for i, spec in self.rigid_drivers().items()]
+        uses += [(f"boundary[{i}].amplitude", bc.amplitude) for i, bc in enumerate(self.boundaries)]
+        return [(where, ref) for where, ref in uses if ref is not None]
+
+    def amplitude(self, ref: AmplitudeSpec | str) -> Amplitude:
+        """The curve a(t) of an amplitude reference: the name of an ``[amplitudes]`` table or an inline table."""
+        return (self.amplitudes[ref] if isinstance(ref, str) else ref).build()
+
+    def rigid_drivers(self) -> dict[int, RigidSpec]:
+        """The ``kind = "rigid"`` materials by material index."""
+        return {i: _rigid_spec(data) for i, data in enumerate(self.materials.values()) if data.get("kind") == "rigid"}
 
     def build_materials(self) -> list[Any]:
         """Material objects in the order of ``[materials]`` (material id = position)."""
@@ -427,7 +567,7 @@ def format_errors(error: ValidationError) -> str:
             msg = "unknown key"
         got = err.get("input")
         shown = "" if isinstance(got, (dict, list)) or err["type"] == "missing" else f" (got {got!r})"
-        if msg.startswith((f"{path}.", f"{path}[")):  # the validator already named the key
+        if not err["loc"] or msg.startswith((f"{path}.", f"{path}[")):  # the validator already named the key
             lines.append(f"{msg}{shown}")
         else:
             lines.append(f"{path}: {msg}{shown}")
