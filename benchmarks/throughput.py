@@ -1,16 +1,20 @@
 """Throughput of the explicit MPM solver in particle-steps per second.
 
-Cases: ``neo_hookean`` (a block of NeoHookean tissue, free flight with an initial velocity) and
-``weiss_failure`` (the same block with TwoSurfaceFailure(Weiss) when available, else Weiss);
-float64 and float32; one thread and all threads; uGIMP, MUSL (the defaults).
+Cases: ``neo_hookean`` (a block of NeoHookean tissue, free flight with random velocities) and
+``weiss_failure`` (the same block with TwoSurfaceFailure(Weiss)); float64 and float32; one
+thread and all threads; uGIMP; the transfer schemes given (default MUSL, the solver's
+default, and USL, one P2G and one G2P per step).
 
 Usage::
 
-    python benchmarks/throughput.py [--cells 24] [--ppc 2] [--steps 20] [--json] [--quick]
+    python benchmarks/throughput.py [--cells 24] [--ppc 2] [--steps 20] [--transfer musl usl]
+                                    [--device cpu|cuda] [--json] [--quick]
 
 ``--json`` prints one JSON record per case with ``case``, ``precision``, ``threads``,
-``shape_function``, ``particles``, ``particle_steps_per_s`` and the machine description.
-Timings exclude kernel compilation (a warm-up step runs first).
+``shape_function``, ``transfer``, ``device``, ``particles``, ``particle_steps_per_s`` and the
+machine description. Timings are wall clock over ``--steps`` steps after a warm-up step
+(kernel compilation excluded); a step includes the CFL time step from every particle's
+wave speed.
 """
 
 import argparse
@@ -21,7 +25,7 @@ import time
 
 import numpy as np
 
-from tissuempm.materials import NeoHookean, Weiss
+from tissuempm.materials import NeoHookean, TwoSurfaceFailure, Weiss
 from tissuempm.mpm import ExplicitSolver, Grid, Model, ParticleData, SolverConfig
 
 
@@ -38,15 +42,10 @@ def machine() -> dict:
 def material(case: str):
     if case == "neo_hookean":
         return NeoHookean(C10=5e3, K=1e5, density=1000.0)
-    try:
-        from tissuempm.materials import TwoSurfaceFailure
-
-        return TwoSurfaceFailure(base=Weiss.example(), gamma_max=0.25, eps_max=0.4)
-    except Exception:  # failure layer not available or different signature
-        return Weiss.example()
+    return TwoSurfaceFailure(base=Weiss.example(), gamma_max=0.25, eps_max=0.4)
 
 
-def run_case(case, precision, threads, cells, ppc, steps, shape="gimp") -> dict:
+def run_case(case, precision, threads, cells, ppc, steps, shape="gimp", transfer="musl", device="cpu") -> dict:
     h = 1e-3
     n = cells
     grid = Grid(origin=(0, 0, 0), cell_size=h, shape=(n + 4, n + 4, n + 4))
@@ -56,7 +55,8 @@ def run_case(case, precision, threads, cells, ppc, steps, shape="gimp") -> dict:
     v = 0.05 * rng.standard_normal(X.shape)
     pd = ParticleData(x=X, volume=(h / ppc) ** 3, size=h / ppc, material=0, velocity=v)
     solver = ExplicitSolver(Model(grid=grid, materials=[material(case)]),
-                            SolverConfig(shape=shape, precision=precision, threads=threads))  # fmt: skip
+                            SolverConfig(shape=shape, precision=precision, threads=threads, transfer=transfer,
+                                         device=device))  # fmt: skip
     st = solver.initial_state(pd)
     solver.step(st)  # warm-up (compilation)
     t0 = time.perf_counter()
@@ -69,7 +69,8 @@ def run_case(case, precision, threads, cells, ppc, steps, shape="gimp") -> dict:
         "precision": precision,
         "threads": threads,
         "shape_function": shape,
-        "transfer": "musl",
+        "transfer": transfer,
+        "device": device,
         "particles": len(X),
         "steps": steps,
         "wall_s": wall,
@@ -83,24 +84,29 @@ def main() -> None:
     ap.add_argument("--ppc", type=int, default=2, help="particles per cell per direction (default 2)")
     ap.add_argument("--steps", type=int, default=20, help="timed steps per case (default 20)")
     ap.add_argument("--quick", action="store_true", help="small block, 5 steps (smoke test)")
+    ap.add_argument("--transfer", nargs="+", default=["musl", "usl"], choices=["musl", "usl", "usf"],
+                    help="transfer schemes (default: musl usl)")
+    ap.add_argument("--device", default="cpu", help="cpu or cuda (default cpu)")
     ap.add_argument("--json", action="store_true", help="one JSON record per case")
     args = ap.parse_args()
     if args.quick:
         args.cells, args.steps = 8, 5
     mach = machine()
-    all_threads = os.cpu_count() or 1
+    all_threads = (os.cpu_count() or 1) if args.device == "cpu" else 1
     if not args.json:
         print(f"machine: {mach}")
     for case in ("neo_hookean", "weiss_failure"):
         for precision in ("float64", "float32"):
-            for threads in sorted({1, all_threads}):
-                rec = run_case(case, precision, threads, args.cells, args.ppc, args.steps)
-                rec["machine"] = mach
-                if args.json:
-                    print(json.dumps(rec))
-                else:
-                    print(f"{case:14s} {precision} threads={threads} particles={rec['particles']} "
-                          f"{rec['particle_steps_per_s'] / 1e6:6.2f} M particle-steps/s")  # fmt: skip
+            for transfer in args.transfer:
+                for threads in sorted({1, all_threads}):
+                    rec = run_case(case, precision, threads, args.cells, args.ppc, args.steps,
+                                   transfer=transfer, device=args.device)  # fmt: skip
+                    rec["machine"] = mach
+                    if args.json:
+                        print(json.dumps(rec), flush=True)
+                    else:
+                        print(f"{case:14s} {precision} {transfer} threads={threads} particles={rec['particles']} "
+                              f"{rec['particle_steps_per_s'] / 1e6:6.2f} M particle-steps/s", flush=True)  # fmt: skip
 
 
 if __name__ == "__main__":
