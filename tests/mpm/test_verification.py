@@ -11,6 +11,8 @@ from mpm_testlib import CompressibleNeoHookean, Uniaxial1D, block, lattice
 from tissuempm.materials import LinearElastic
 from tissuempm.mpm import Control, ExplicitSolver, Grid, GridBoundary, Model, ParticleData, SolverConfig
 
+SHAPES = ["linear", "gimp", "cpgimp", "bspline"]
+
 
 def side_walls(axes=(1, 2)):
     return [GridBoundary(a, side, "slip") for a in axes for side in ("lower", "upper")]
@@ -52,8 +54,12 @@ def vibrating_bar(shape="gimp", transfer="musl", periods=1.0, h=1.0, ppc=2):
     return t, vcm, exact, period, T, lateral
 
 
-def test_vibrating_bar_period():
-    t, vcm, exact, period, T, lateral = vibrating_bar(periods=1.0)
+@pytest.mark.parametrize("shape", ["gimp", "bspline"])
+def test_vibrating_bar_period(shape):
+    """Period within 1 % (the issue's criterion; GIMP and the boundary-modified B-spline are at ~0.1 %,
+    the unmodified B-spline was 1.35 % long: its fixed face moved with v_1 / 8) and centre-of-mass
+    velocity within 5 % of its amplitude (~2-3 % at h = 1: dispersion over one period)."""
+    t, vcm, exact, period, T, lateral = vibrating_bar(shape=shape, periods=1.0)
     assert abs(period - T) / T < 0.01
     assert np.abs(vcm - exact).max() < 0.05 * 2 * 0.1 / np.pi
     assert lateral < 1e-12  # no spurious transverse momentum
@@ -142,12 +148,23 @@ def mms_error(n_cells, shape="gimp", ppc=2, cfl=0.2, A=0.05):
     return err[0]
 
 
-def test_manufactured_solution_converges_gimp():
-    """Observed order >= 1.5 over three refinements in the small-deformation regime (A = 5e-4).
-    At the paper's A = 0.05 (|F - 1| up to 0.31) uGIMP's error saturates near 1e-3 (quadrature error of
-    undeformed particle domains, Steffen et al. 2008): reported in docs/verification.md."""
-    e = [mms_error(n, A=5e-4) for n in (8, 16, 32)]
-    order = np.log2(np.array(e[:-1]) / np.array(e[1:]))
+def observed_orders(shape, A, cells=(8, 16, 32)):
+    """Errors of mms_error on successively halved cells and the observed orders log2(e_h / e_h/2)."""
+    e = np.array([mms_error(n, shape=shape, A=A) for n in cells])
+    return e, np.log2(e[:-1] / e[1:])
+
+
+@pytest.mark.parametrize("shape, A", [("cpgimp", 0.05), ("gimp", 5e-4), ("bspline", 5e-4)])
+def test_manufactured_solution_converges(shape, A):
+    """Observed order >= 1.5 over three refinements (the issue's criterion; GIMP-type and quadratic
+    B-spline transfers are second order in space for smooth solutions, measured 1.9-2.2).
+
+    cpGIMP at the paper's A = 0.05 (|F - 1| up to 0.31): its domains follow the stretch and stay
+    contiguous, so the internal-force quadrature error stays O(h^2). uGIMP and B-spline are checked at
+    A = 5e-4: at A = 0.05 uGIMP's undeformed domains (gaps and overlaps) and B-spline's 2 particles per
+    cell integrate the stretched material with an error that does not shrink with h, and their errors
+    saturate near 1e-3 (docs/verification.md)."""
+    e, order = observed_orders(shape, A)
     assert order.min() >= 1.5, (e, order)
 
 
@@ -167,43 +184,46 @@ def column(shape="gimp", h=1.0, L=50.0, ppc=2, g_max=800.0, E=1.0e6, rho=1.0):
     return d["x"][:, 0] - X, -(rho * g_max / E) * (L * X - 0.5 * X**2), s.diagnostics(st)
 
 
-@pytest.mark.parametrize("shape, h", [("gimp", 2.5), ("bspline", 1.0)])
-def test_column_tip_displacement(shape, h):
-    """Tip within 2 % of -rho g L^2 / (2E) = -1 (B-spline's non-interpolating basis at the fixed base
-    costs ~3 % at h = 2.5, hence the full cell size for it)."""
-    u, exact, diag = column(shape=shape, h=h)
+@pytest.mark.parametrize("shape", ["gimp", "bspline"])
+def test_column_tip_displacement(shape):
+    """Tip within 0.5 % of the exact u(X) at h = 2.5 (20 cells over the column). The issue asks for 2 %;
+    GIMP's discretisation error here is 0.11 % and the boundary-modified B-spline's 0.01 %, so 0.5 %
+    also catches a fixed face that leaks (the unmodified B-spline: 3 %)."""
+    u, exact, diag = column(shape=shape, h=2.5)
     top = -1  # particles are seeded bottom to top
-    assert abs(u[top] - exact[top]) / abs(exact[top]) < 0.02
+    assert abs(u[top] - exact[top]) / abs(exact[top]) < 0.005
     assert diag["grid_mass"] == pytest.approx(diag["mass"], rel=1e-12)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("shape", ["linear", "gimp", "bspline"])
+@pytest.mark.parametrize("shape", SHAPES)
 def test_column_full(shape):
-    u, exact, _ = column(shape=shape, h=1.0)
-    err = abs(u[-1] - exact[-1]) / abs(exact[-1])
-    print(shape, "tip", u[-1], "exact", exact[-1], "rel err", err)
-    if shape != "linear":
-        assert err < 0.02
+    for h in (2.5, 1.0):
+        u, exact, _ = column(shape=shape, h=h)
+        err = (abs(u[-1]) - abs(exact[-1])) / abs(exact[-1])
+        print(shape, "h", h, "tip", u[-1], "exact", exact[-1], f"rel err {100 * err:+.3f} %")
+        if shape != "linear":  # linear: cell-crossing noise, 5-10 %
+            assert abs(err) < 0.02
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("shape", ["linear", "gimp", "bspline"])
+@pytest.mark.parametrize("shape", SHAPES)
 def test_manufactured_solution_full(shape):
     for A in (0.05, 5e-4):
-        e = [mms_error(n, shape=shape, A=A) for n in (8, 16, 32, 64)]
-        order = np.log2(np.array(e[:-1]) / np.array(e[1:]))
-        print(shape, "A", A, "errors/A", np.array(e) / A, "orders", order)
-        if shape == "gimp" and A < 1e-3:
+        e, order = observed_orders(shape, A, cells=(8, 16, 32, 64))
+        print(shape, "A", A, "errors/A", ", ".join(f"{x:.3g}" for x in e / A), "orders", np.round(order, 2))
+        if shape == "cpgimp" or (shape != "linear" and A < 1e-3):
             assert order.min() >= 1.5
 
 
 @pytest.mark.slow
 def test_vibrating_bar_full():
-    for shape in ("linear", "gimp", "bspline"):
-        t, vcm, exact, period, T, _ = vibrating_bar(shape=shape, periods=5.0, h=0.5)
-        print(shape, "period", period, "exact", T, "rel err", abs(period - T) / T)
-        if shape != "bspline":  # B-spline: 1.35 % at h = 1 (boundary basis), reported in docs/verification.md
+    for h, periods in ((1.0, 3.0), (0.5, 5.0)):
+        for shape in SHAPES:
+            t, vcm, exact, period, T, _ = vibrating_bar(shape=shape, periods=periods, h=h)
+            vamp = np.abs(vcm - exact).max() / (2 * 0.1 / np.pi)
+            print(shape, "h", h, "period", period, "exact", T, f"rel err {100 * (period - T) / T:+.3f} %",
+                  f"max |v_cm error| / amplitude {vamp:.3f}")  # fmt: skip
             assert abs(period - T) / T < 0.01
 
 

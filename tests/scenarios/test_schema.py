@@ -77,7 +77,7 @@ def test_csg_shapes_nest():
         ("solver.cfl", 5, "solver.cfl", "less than or equal to 1"),
         ("solver.cfl", 0, "solver.cfl", "greater than 0"),
         ("solver.flip", 1.5, "solver.flip", "less than or equal to 1"),
-        ("solver.shape", "quadratic", "solver.shape", "'gimp', 'linear' or 'bspline'"),
+        ("solver.shape", "quadratic", "solver.shape", "'gimp', 'cpgimp', 'linear' or 'bspline'"),
         ("solver.colour", "red", "solver.colour", "unknown key"),
         ("grid.cell_size", "-1 mm", "grid.cell_size", "greater than 0"),
         ("grid.cell_size", "1 ms", "grid.cell_size", "wrong unit"),

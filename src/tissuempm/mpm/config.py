@@ -14,14 +14,16 @@ import numpy as np
 
 from tissuempm.precision import check_precision
 
-ShapeFunction = Literal["linear", "gimp", "bspline"]
+ShapeFunction = Literal["linear", "gimp", "cpgimp", "bspline"]
 """Grid basis: ``"linear"`` (tent, 2 nodes per axis), ``"gimp"`` (uniform GIMP,
-Bardenhagen & Kober 2004, 3 nodes per axis) or ``"bspline"`` (quadratic B-spline,
-3 nodes per axis)."""
+Bardenhagen & Kober 2004, 3 nodes per axis), ``"cpgimp"`` (contiguous-particle GIMP:
+the particle domain follows the deformation gradient, capped at one cell; 3 nodes per axis)
+or ``"bspline"`` (quadratic B-spline, boundary-modified at the grid faces, 3 nodes
+per axis). See :mod:`tissuempm.mpm.shape_functions`."""
 Transfer = Literal["usl", "musl", "usf"]
 """Update scheme: update stress last, modified update stress last (velocity
 re-projected before the stress update; Sulsky et al. 1994) or update stress first."""
-SHAPES: tuple[str, ...] = ("linear", "gimp", "bspline")
+SHAPES: tuple[str, ...] = ("linear", "gimp", "cpgimp", "bspline")
 TRANSFERS: tuple[str, ...] = ("usl", "musl", "usf")
 DEVICES: tuple[str, ...] = ("cpu", "cuda")
 
@@ -40,7 +42,9 @@ class SolverConfig:
     Attributes
     ----------
     shape
-        Shape functions, ``"linear"``, ``"gimp"`` (uGIMP, seed 000's choice; default) or ``"bspline"``.
+        Shape functions, ``"linear"``, ``"gimp"`` (uGIMP, seed 000's choice; default), ``"cpgimp"``
+        (contiguous-particle GIMP, domains l_a = l0_a |F_aa| capped at one cell) or ``"bspline"``
+        (quadratic B-spline clamped at the grid faces).
     transfer
         ``"usl"``, ``"musl"`` (default) or ``"usf"``.
     flip

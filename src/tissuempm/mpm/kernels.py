@@ -17,7 +17,7 @@ from typing import Any
 import warp as wp
 
 from tissuempm.mpm.model import GHOST
-from tissuempm.mpm.shape_functions import STENCIL, axis_weights
+from tissuempm.mpm.shape_functions import STENCIL, axis_weights, particle_domain
 from tissuempm.precision import WarpTypes
 
 # scatter / reduce field flags
@@ -78,15 +78,19 @@ def _helpers(t: WarpTypes, shape: str) -> SimpleNamespace:
     NP = STENCIL[shape]
     G = GHOST
     weights = axis_weights(t, shape)
+    domain = particle_domain(t, shape)
 
     @wp.func
-    def stencil(xp: vec3, size: vec3, origin: vec3, inv_h: s, dims: wp.vec3i):
-        """First stencil node (storage (i, j, k)) and per-axis weights and derivatives [1/m]."""
+    def stencil(
+        xp: vec3, p: int, size: wp.array(dtype=vec3), F: wp.array(dtype=t.mat33), origin: vec3, inv_h: s, dims: wp.vec3i
+    ):
+        """First stencil node (storage (i, j, k)) and per-axis weights and derivatives [1/m] of particle
+        ``p`` at ``xp`` (its domain from ``size`` and, for cpGIMP, ``F``)."""
         xi = (xp - origin) * inv_h
-        l = size * (s(0.5) * inv_h)
-        bx, wx, dx = weights(xi[0], l[0])
-        by, wy, dy = weights(xi[1], l[1])
-        bz, wz, dz = weights(xi[2], l[2])
+        l = domain(size, F, p, inv_h)
+        bx, wx, dx = weights(xi[0], l[0], dims[0])
+        by, wy, dy = weights(xi[1], l[1], dims[1])
+        bz, wz, dz = weights(xi[2], l[2], dims[2])
         # clamp so that a particle that has just left the grid cannot write out of bounds
         bx = wp.clamp(bx, -G, dims[0] + G + 1 - NP) + G
         by = wp.clamp(by, -G, dims[1] + G + 1 - NP) + G
@@ -104,7 +108,7 @@ def _helpers(t: WarpTypes, shape: str) -> SimpleNamespace:
 
 @functools.cache
 def _bounds(t: WarpTypes, shape: str) -> Any:
-    s, vec3 = t.scalar, t.vec3
+    s, vec3, mat33 = t.scalar, t.vec3, t.mat33
     h = _helpers(t, shape)
     stencil, strides, NP = h.stencil, h.strides, h.NP
 
@@ -112,6 +116,7 @@ def _bounds(t: WarpTypes, shape: str) -> Any:
     def bounds(
         x: wp.array(dtype=vec3),
         size: wp.array(dtype=vec3),
+        F: wp.array(dtype=mat33),
         origin: vec3,
         inv_h: s,
         dims: wp.vec3i,
@@ -122,7 +127,7 @@ def _bounds(t: WarpTypes, shape: str) -> Any:
     ):
         """Range of flat node indices touched by the chunk (its scatter window)."""
         p = begin + wp.tid()
-        b, wx, wy, wz, dx, dy, dz = stencil(x[p], size[p], origin, inv_h, dims)
+        b, wx, wy, wz, dx, dy, dz = stencil(x[p], p, size, F, origin, inv_h, dims)
         sx, sy = strides(dims)
         nb = b[0] * sx + b[1] * sy + b[2]
         wp.atomic_min(lo, c, nb)
@@ -192,7 +197,7 @@ def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
         f_i = -sum V_p sigma_p grad S + sum S m_p b_p; constraint mass/momentum of rigid and fixed particles."""
         p = begin + wp.tid()
         mat = material[p]
-        b, wx, wy, wz, dx, dy, dz = stencil(x[p], size[p], origin, inv_h, dims)
+        b, wx, wy, wz, dx, dy, dz = stencil(x[p], p, size, F, origin, inv_h, dims)
         sx, sy = strides(dims)
         nb = b[0] * sx + b[1] * sy + b[2]
         m = mass[p]
@@ -405,7 +410,7 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
         xp = x[p]
         rigid = mat_rigid[mat] != 0
         if wp.static(flags & (MOVE | GRADIENT)):
-            b, wx, wy, wz, dx, dy, dz = stencil(xp, size[p], origin, inv_h, dims)
+            b, wx, wy, wz, dx, dy, dz = stencil(xp, p, size, F, origin, inv_h, dims)
             sx, sy = strides(dims)
             nb = b[0] * sx + b[1] * sy + b[2]
             vpic = vec3()
@@ -480,7 +485,7 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
 
 @functools.cache
 def _reaction(t: WarpTypes, shape: str) -> Any:
-    s, vec3 = t.scalar, t.vec3
+    s, vec3, mat33 = t.scalar, t.vec3, t.mat33
     h = _helpers(t, shape)
     stencil, strides, NP = h.stencil, h.strides, h.NP
 
@@ -489,6 +494,7 @@ def _reaction(t: WarpTypes, shape: str) -> Any:
         x: wp.array(dtype=vec3),
         mass: wp.array(dtype=s),
         size: wp.array(dtype=vec3),
+        F: wp.array(dtype=mat33),
         material: wp.array(dtype=wp.int32),
         fixed: wp.array(dtype=wp.int32),
         mat_rigid: wp.array(dtype=wp.int32),
@@ -506,7 +512,7 @@ def _reaction(t: WarpTypes, shape: str) -> Any:
         p = begin + wp.tid()
         if mat_rigid[material[p]] == 0 and fixed[p] == 0:
             return
-        b, wx, wy, wz, dx, dy, dz = stencil(x[p], size[p], origin, inv_h, dims)
+        b, wx, wy, wz, dx, dy, dz = stencil(x[p], p, size, F, origin, inv_h, dims)
         sx, sy = strides(dims)
         nb = b[0] * sx + b[1] * sy + b[2]
         m = mass[p]

@@ -2,8 +2,8 @@
 
 Conventions: SI units; the grid is a regular Cartesian box of ``shape = (nx, ny, nz)``
 cells of edge ``cell_size`` starting at ``origin``; its nodes are ``(nx+1, ny+1, nz+1)``
-plus one ghost layer on every side (used by the GIMP and B-spline stencils of
-particles in boundary cells). Particles must stay inside the box
+plus one ghost layer on every side (used by the GIMP stencils of particles in
+boundary cells; the clamped B-spline gives ghost nodes no weight). Particles must stay inside the box
 ``[origin, origin + shape * cell_size]``.
 """
 

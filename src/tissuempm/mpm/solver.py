@@ -35,6 +35,7 @@ from tissuempm.mpm import kernels as K
 from tissuempm.mpm.config import Control, SolverConfig
 from tissuempm.mpm.errors import InstabilityError
 from tissuempm.mpm.model import Model, ParticleData, RigidMaterial
+from tissuempm.mpm.shape_functions import GIMP_SHAPES
 from tissuempm.mpm.state import PARTICLE_FIELDS, State, warp_array
 from tissuempm.precision import init_warp, warp_types
 
@@ -156,8 +157,8 @@ class ExplicitSolver:
         if np.any(outside):
             bad = int(np.argmax(outside))
             raise ValueError(f"particle {bad} at {pd.x[bad].tolist()} is outside the grid [{lo.tolist()}, {hi.tolist()}]")
-        if self.config.shape == "gimp" and np.any(pd.size > self.h * (1 + 1e-12)):
-            raise ValueError(f"uGIMP needs particle sizes <= the cell size {self.h:g} m (max {pd.size.max():g})")
+        if self.config.shape in GIMP_SHAPES and np.any(pd.size > self.h * (1 + 1e-12)):
+            raise ValueError(f"GIMP needs particle sizes <= the cell size {self.h:g} m (max {pd.size.max():g})")
         n = pd.n
         density = np.array([self.model.density(i) for i in range(n_mat)])
         hist = np.zeros((n, self.model.n_state))
@@ -300,7 +301,7 @@ class ExplicitSolver:
                     lo, hi = st.lo.numpy(), st.hi.numpy()
                     if flags & K.MASS:
                         lo[slot], hi[slot] = self.n_nodes, -1
-                        self._launch(kern.bounds, e - b, [st.x, st.size, *common, b, slot, st.lo, st.hi])
+                        self._launch(kern.bounds, e - b, [st.x, st.size, st.F, *common, b, slot, st.lo, st.hi])
                     start, count = int(lo[slot]), int(hi[slot]) - int(lo[slot]) + 1
                 else:
                     start, count = 0, self.n_nodes
@@ -356,7 +357,7 @@ class ExplicitSolver:
                     self._launch(
                         self.kern.reaction,
                         e - b,
-                        [st.x, st.mass, st.size, st.material, st.fixed, self.mat_rigid, self.g_react, self.g_cm,
+                        [st.x, st.mass, st.size, st.F, st.material, st.fixed, self.mat_rigid, self.g_react, self.g_cm,
                          self.origin, s(1.0 / self.h), self.dims, b, st.reaction],
                     )  # fmt: skip
                 self._launch(

@@ -156,7 +156,7 @@ AmplitudeRef = Annotated[
 class SolverSection(Section):
     """``[solver]``: the explicit MPM settings (:class:`tissuempm.mpm.SolverConfig`)."""
 
-    shape: Literal["gimp", "linear", "bspline"] = "gimp"
+    shape: Literal["gimp", "cpgimp", "linear", "bspline"] = "gimp"
     transfer: Literal["usl", "musl", "usf"] = "musl"
     flip: Annotated[float, Field(ge=0.0, le=1.0)] = 0.99
     cfl: Annotated[Number, Field(gt=0.0, le=1.0)] = 0.3
