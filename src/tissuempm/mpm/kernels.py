@@ -43,6 +43,9 @@ POSITION = wp.constant(4)
 """Gather: x <- x + dt v_pic (after MOVE, possibly in a later pass: MUSL re-projects at the old x)."""
 SHARED = wp.constant(8)
 """Gather with MOVE and GRADIENT: the gradient velocity is ``v_new`` (USL), read once."""
+REPROJECT = wp.constant(16)
+"""Gather with MOVE: scatter the new particle momentum m_p v_p at the old position into the
+chunk's momentum buffer in the same pass (MUSL re-projection; the window was zeroed before)."""
 SLOT = 16
 """Elements between two chunks' entries of the per-chunk arrays (window bounds, first bad
 particle, signal speed): chunks update them from parallel threads, one cache line each."""
@@ -386,6 +389,8 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
         v_old: wp.array(dtype=vec3),
         v_new: wp.array(dtype=vec3),
         v_grad: wp.array(dtype=vec3),
+        mass: wp.array(dtype=s),
+        b_mom: wp.array(dtype=vec3),
         origin: vec3,
         inv_h: s,
         dims: wp.vec3i,
@@ -403,6 +408,7 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
                   v_pic = sum S v_i^new (``reaction`` gives the constrained particles' reaction share).
         GRADIENT: L_p = sum v_i (x) grad S (v_i = ``v_grad``), F <- (I + dt L) F, check J > 0.
         POSITION: x <- x + dt v_pic, check that the particle is inside the grid.
+        REPROJECT (with MOVE): b_mom_i += S m_p v_p (MUSL), so the re-projection costs no second stencil.
         Rigid particles move with their material's velocity and keep F; fixed ones stay put.
         """
         p = begin + wp.tid()
@@ -460,7 +466,15 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
                     vpic = vec3()
                     v[p] = vpic
                 else:
-                    v[p] = flip * (v[p] + dv) + (s(1.0) - flip) * vpic
+                    vp = flip * (v[p] + dv) + (s(1.0) - flip) * vpic
+                    v[p] = vp
+                    if wp.static(flags & REPROJECT):
+                        mv = mass[p] * vp
+                        for i in range(NP):
+                            for j in range(NP):
+                                wij = wx[i] * wy[j]
+                                for k in range(NP):
+                                    b_mom[nb + i * sx + j * sy + k] += (wij * wz[k]) * mv
                 vpic_p[p] = vpic
             if wp.static(flags & GRADIENT):
                 if rigid:

@@ -284,6 +284,13 @@ class ExplicitSolver:
         if np.any(perm != np.arange(st.n)):
             st.permute(perm)
 
+    def _window(self, st: State, c: int) -> tuple[int, int]:
+        """First node and node count of chunk ``c``'s scatter window (the whole grid on CUDA)."""
+        if not self.is_cpu:
+            return 0, self.n_nodes
+        lo, hi = int(st.lo.numpy()[c * K.SLOT]), int(st.hi.numpy()[c * K.SLOT])
+        return lo, hi - lo + 1
+
     def _rasterize(self, st: State, flags: int) -> None:
         """P2G of the fields ``flags`` into the chunk buffers (windows recomputed with MASS)."""
         kern = self.kern
@@ -297,14 +304,10 @@ class ExplicitSolver:
         def task(c: int, b: int, e: int) -> Callable[[], None]:
             def run() -> None:
                 rows, slot = self._rows[c], c * K.SLOT
-                if self.is_cpu:
-                    lo, hi = st.lo.numpy(), st.hi.numpy()
-                    if flags & K.MASS:
-                        lo[slot], hi[slot] = self.n_nodes, -1
-                        self._launch(kern.bounds, e - b, [st.x, st.size, st.F, *common, b, slot, st.lo, st.hi])
-                    start, count = int(lo[slot]), int(hi[slot]) - int(lo[slot]) + 1
-                else:
-                    start, count = 0, self.n_nodes
+                if self.is_cpu and flags & K.MASS:
+                    st.lo.numpy()[slot], st.hi.numpy()[slot] = self.n_nodes, -1
+                    self._launch(kern.bounds, e - b, [st.x, st.size, st.F, *common, b, slot, st.lo, st.hi])
+                start, count = self._window(st, c)
                 self._launch(zero, count, [start, *rows])
                 self._launch(
                     p2g,
@@ -343,12 +346,13 @@ class ExplicitSolver:
         self._parallel([task(int(edges[i]), int(edges[i + 1])) for i in range(self.threads) if edges[i + 1] > edges[i]])
 
     def _gather(self, st: State, flags: int, dt: float, v_grad: wp.array) -> None:
-        """G2P of the parts ``flags`` (MOVE, GRADIENT, POSITION)."""
+        """G2P of the parts ``flags`` (MOVE, GRADIENT, POSITION; MOVE | REPROJECT also scatters the
+        new momentum into the chunk buffers, zeroed first over the chunk's window)."""
         s = self.t.scalar
         if flags & K.MOVE and flags & K.GRADIENT and v_grad is self.g_vnew:
             flags |= K.SHARED
         g2p = self._ready(self.kern.g2p(flags))
-
+        zero = self._ready(self.kern.zero(K.MOMENTUM))
         reaction = flags & K.MOVE and st.constrained
 
         def task(c: int, b: int, e: int) -> Callable[[], None]:
@@ -360,12 +364,17 @@ class ExplicitSolver:
                         [st.x, st.mass, st.size, st.F, st.material, st.fixed, self.mat_rigid, self.g_react, self.g_cm,
                          self.origin, s(1.0 / self.h), self.dims, b, st.reaction],
                     )  # fmt: skip
+                rows = self._rows[c]
+                if flags & K.REPROJECT:
+                    start, count = self._window(st, c)
+                    self._launch(zero, count, [start, *rows])
                 self._launch(
                     g2p,
                     e - b,
                     [st.x, st.v, st.vpic, st.F, st.L, st.size, st.material, st.fixed, self.mat_rigid,
-                     self.rigid_vel, self.g_vold, self.g_vnew, v_grad, self.origin, s(1.0 / self.h), self.dims,
-                     self.lower, self.upper, b, c * K.SLOT, s(dt), s(self.config.flip), st.bad],
+                     self.rigid_vel, self.g_vold, self.g_vnew, v_grad, st.mass, rows[1], self.origin,
+                     s(1.0 / self.h), self.dims, self.lower, self.upper, b, c * K.SLOT, s(dt), s(self.config.flip),
+                     st.bad],
                 )  # fmt: skip
 
             return run
@@ -438,8 +447,7 @@ class ExplicitSolver:
             if cfg.transfer == "usl":
                 self._gather(st, K.MOVE | K.GRADIENT | K.POSITION, dt, self.g_vnew)
             else:
-                self._gather(st, K.MOVE, dt, self.g_vnew)
-                self._rasterize(st, K.MOMENTUM)
+                self._gather(st, K.MOVE | K.REPROJECT, dt, self.g_vnew)
                 self._solve_grid(st, K.MOMENTUM, K.VELOCITY, dt)
                 self._gather(st, K.GRADIENT | K.POSITION, dt, self.g_vgrad)
             self._constitutive(st, dt)
