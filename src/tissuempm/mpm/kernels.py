@@ -3,7 +3,8 @@
 Built per (precision, shape function) by :func:`transfer_kernels` and per
 (material law, precision) by :func:`material_kernels`. Every particle kernel works
 on the particle range ``[begin, begin + dim)`` (one chunk) and scatters into row
-``c`` of the chunk grid buffers (its per-chunk scalars live at slot ``c * SLOT``); on CUDA there is one chunk and the adds are atomic.
+``c`` of the chunk grid buffers (its per-chunk scalars live at slot ``c * SLOT``); on
+CUDA there is one chunk and the adds are atomic.
 
 Grid storage: node ``(i, j, k)`` (``i = -GHOST .. nx + GHOST``) is stored at the flat
 index ``((i + GHOST) * NY + j + GHOST) * NZ + k + GHOST`` with ``NY = ny + 1 + 2 GHOST``

@@ -85,6 +85,7 @@ class ExplicitSolver:
         self.mat_rigid = wp.array(
             np.array([model.is_rigid(i) for i in range(n_mat)], dtype=np.int32), dtype=wp.int32, device=self.device
         )
+        self._has_rigid = any(model.is_rigid(i) for i in range(n_mat))
         self._rigid_velocity = np.zeros((n_mat, 3))
         for i, m in enumerate(model.materials):
             if isinstance(m, RigidMaterial):
@@ -250,9 +251,11 @@ class ExplicitSolver:
 
         def task(c: int, b: int, e: int) -> Callable[[], None]:
             def run() -> None:
+                slot = c * K.SLOT
                 for i, _, mk, prm in self.laws:
-                    self._launch(mk.speed, e - b, [i, prm, st.F, st.fiber, st.history, st.v, st.material, b, c * K.SLOT, st.speed])
-                self._launch(self.kern.rigid_speed, e - b, [st.v, st.material, self.mat_rigid, b, c * K.SLOT, st.speed])
+                    self._launch(mk.speed, e - b, [i, prm, st.F, st.fiber, st.history, st.v, st.material, b, slot, st.speed])
+                if self._has_rigid:
+                    self._launch(self.kern.rigid_speed, e - b, [st.v, st.material, self.mat_rigid, b, slot, st.speed])
 
             return run
 
