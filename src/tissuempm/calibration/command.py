@@ -6,6 +6,7 @@ The lead registers :func:`calibrate` in ``tissuempm.cli`` (``app.command("calibr
 from __future__ import annotations
 
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
@@ -35,6 +36,7 @@ def run_config(cfg: CalibrationConfig, base: Path, progress=None) -> FitResult:
     form = make_form(
         m.form, curves, terms=m.terms, prony_terms=m.prony_terms, K=m.bulk_modulus, density=m.density,
         volumetric=m.volumetric, nu=m.poisson_ratio, bounds={k: tuple(v) for k, v in m.bounds.items()},
+        fit_bulk_modulus=m.fit_bulk_modulus,
     )
     o = cfg.optimizer
     start = None
@@ -47,11 +49,12 @@ def run_config(cfg: CalibrationConfig, base: Path, progress=None) -> FitResult:
         start = tuple(m.start[n] for n in form.names)
     settings = SearchSettings(
         method=o.method, seed=o.seed, local_solver=o.local_solver, trial_points=o.trial_points,
-        stage1_points=o.stage1_points, max_local_runs=o.max_local_runs, local_maxiter=o.local_maxiter,
+        stage1_points=o.stage1_points, max_local_runs=o.max_local_runs, min_local_runs=o.min_local_runs,
+        local_maxiter=o.local_maxiter,
         popsize=o.popsize, maxiter=o.maxiter, polish=o.polish, start=start,
     )
     result = fit(form, curves, settings, stability_range=m.stability_range, stability_modes=m.stability_modes,
-                 max_increment=m.max_increment, progress=progress)
+                 max_increment=m.max_increment, forward=m.forward, progress=progress)
     a = cfg.analysis
     from tissuempm.calibration import identifiability as ident
 
@@ -67,12 +70,11 @@ def run_config(cfg: CalibrationConfig, base: Path, progress=None) -> FitResult:
         table = []
         for n_terms in a.compare_terms:
             f2 = make_form(m.form, curves, terms=n_terms, prony_terms=m.prony_terms, K=m.bulk_modulus,
-                           density=m.density, volumetric=m.volumetric, nu=m.poisson_ratio)
-            r2 = fit(f2, curves, SearchSettings(method=o.method, seed=o.seed, local_solver=o.local_solver,
-                                                trial_points=o.trial_points, stage1_points=o.stage1_points,
-                                                max_local_runs=o.max_local_runs),
+                           density=m.density, volumetric=m.volumetric, nu=m.poisson_ratio,
+                           fit_bulk_modulus=m.fit_bulk_modulus)
+            r2 = fit(f2, curves, replace(settings, start=None),
                      stability_range=m.stability_range, stability_modes=m.stability_modes,
-                     max_increment=m.max_increment)
+                     max_increment=m.max_increment, forward=m.forward)
             table.append({"terms": n_terms, **ident.information_criteria(r2), "parameters": r2.parameters})
         result.statistics["model_selection"] = table
     return result

@@ -12,6 +12,11 @@ Minimal example (Brewick et al. 2017 style hyper-viscoelastic fit)::
     strain_rate = -1000.0           # 1/s; negative means compression
     weight = 2.0
 
+    [[data]]
+    file = "shear_1.csv"            # columns strain,stress = shear strain gamma, shear stress tau [Pa]
+    mode = "shear"                  # simple shear (alias of "simple_shear")
+    strain_rate = 1.0               # d gamma/dt [1/s]
+
     [optimizer]
     method = "globalsearch"         # or "differential_evolution"
     seed = 1
@@ -26,9 +31,12 @@ import tomllib
 from pathlib import Path
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from tissuempm.calibration.constraints import STABILITY_MODES
+from tissuempm.calibration.data import MODE_ALIASES
 from tissuempm.calibration.forms import FORMS
+from tissuempm.calibration.forward import FORWARDS
 
 
 class ConfigError(ValueError):
@@ -54,8 +62,18 @@ class ModelConfig(_Strict):
     stability_range: tuple[float, float] | None = Field(
         None, description="extra stretch range [lo, hi] where Drucker stability is required"
     )
-    stability_modes: list[Literal["uniaxial", "equibiaxial", "pure_shear"]] = ["uniaxial", "equibiaxial", "pure_shear"]
+    stability_modes: list[Literal[STABILITY_MODES]] = list(STABILITY_MODES)  # type: ignore[valid-type]
     max_increment: float = Field(0.0025, gt=0, le=0.05, description="strain increment of the viscoelastic history")
+    forward: Literal[FORWARDS] = Field(  # type: ignore[valid-type]
+        "closed_form", description="incompressible closed forms, or the compressible 3-D driver (slower)")
+    fit_bulk_modulus: bool = Field(False, description="fit K too (needs forward = 'driver'); bulk_modulus is its start")
+
+    @model_validator(mode="after")
+    def _bulk_needs_driver(self) -> "ModelConfig":
+        if self.fit_bulk_modulus and self.forward != "driver":
+            raise ValueError("fit_bulk_modulus = true needs forward = 'driver' (the incompressible closed forms "
+                             "do not depend on K)")
+        return self
 
 
 class DataConfig(_Strict):
@@ -64,7 +82,7 @@ class DataConfig(_Strict):
     file: str
     strain_rate: float | None = Field(None, description="1/s, negative in compression; omit for quasi-static")
     weight: float = Field(1.0, gt=0)
-    mode: Literal["uniaxial", "tension", "compression", "equibiaxial", "biaxial", "pure_shear", "planar"] | None = None
+    mode: Literal[tuple(MODE_ALIASES)] | None = None  # type: ignore[valid-type]
     stress_unit: Literal["Pa", "kPa", "MPa", "GPa"] | None = None
     strain_unit: Literal["1", "-", "percent", "%"] | None = None
     points: int = Field(20, ge=2, description="equally spaced points per curve (report: 20)")
@@ -88,6 +106,8 @@ class OptimizerConfig(_Strict):
     trial_points: int = Field(400, ge=10)
     stage1_points: int = Field(80, ge=2)
     max_local_runs: int = Field(25, ge=1)
+    min_local_runs: int = Field(15, ge=1, description="local runs added from the best unused trial points up to this "
+                                                       "number (use 25 for 6 or more parameters, e.g. 3-term Ogden)")
     local_maxiter: int = Field(400, ge=1)
     popsize: int = Field(15, ge=4)
     maxiter: int = Field(200, ge=1)

@@ -2,8 +2,9 @@
 
 * sum of the modulus coefficients > 0: sum_i mu_i > 0 (Ogden, eq. 14), sum C_ij > 0 (polynomial family);
 * Drucker stability (eq. 55) of the elastic core: the nominal stress increases with stretch,
-  dP/dlam > 0, in every checked mode (uniaxial, equibiaxial, pure shear) over the fitted stretch
-  range and an optional wider range given by the user;
+  dP/dlam > 0, in every checked stretch mode (uniaxial, equibiaxial, pure shear) over the fitted
+  stretch range (for simple-shear data: the principal stretches they reach) and an optional wider
+  range given by the user; with simple-shear data also dtau/dgamma > 0 over their gamma range;
 * Prony series: 0 < g_j < 1 (bounds), sum_j g_j <= 1, tau_j > 0 (log-scale bounds);
 * user bounds (the search box).
 
@@ -29,7 +30,8 @@ from tissuempm.calibration.forms import ModelForm
 from tissuempm.calibration.forward import elastic_stress
 from tissuempm.materials.base import ParameterError
 
-STABILITY_MODES: tuple[str, ...] = ("uniaxial", "equibiaxial", "pure_shear")
+STABILITY_MODES: tuple[str, ...] = ("uniaxial", "equibiaxial", "pure_shear", "simple_shear")
+"""Modes checked for Drucker stability (simple shear only where there are simple-shear data)."""
 G_SUM_MAX = 1.0 - 1e-9
 """Largest sum of Prony ratios (the long-term modulus ratio g_inf = 1 - sum g_j stays >= 0)."""
 
@@ -43,11 +45,14 @@ class Constraints:
     form
         Model form.
     stretch_range
-        (lowest, highest) stretch of the fitted data (1 is added).
+        (lowest, highest) principal stretch of the fitted data (1 is added).
     extra_range
-        Optional wider stretch range where stability is also required.
+        Optional wider stretch range where stability is also required (stretch modes).
     modes
         Loading modes checked for Drucker stability.
+    shear_range
+        (lowest, highest) shear strain gamma of the simple-shear data (0 is added); ``None``:
+        no simple-shear data, the simple-shear check is skipped.
     n_grid
         Stretches per range in the optimizer's stability constraint.
     """
@@ -57,6 +62,7 @@ class Constraints:
     extra_range: tuple[float, float] | None = None
     modes: tuple[str, ...] = STABILITY_MODES
     n_grid: int = 25
+    shear_range: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         lo, hi = min(self.stretch_range[0], 1.0), max(self.stretch_range[1], 1.0)
@@ -67,6 +73,10 @@ class Constraints:
                 raise ValueError(f"stability range [{a}, {b}] must satisfy 0 < lower < upper")
             self.ranges.append((a, b))
         self.hyperelastic = self.form.form != "linear_elastic"
+        # (mode, strain grid lower end, upper end): stretch modes in strain = lam - 1, simple shear in gamma
+        self.grids = [(m, lo - 1.0, hi - 1.0) for lo, hi in self.ranges for m in self.modes if m != "simple_shear"]
+        if self.shear_range is not None and "simple_shear" in self.modes:
+            self.grids.append(("simple_shear", min(self.shear_range[0], 0.0), max(self.shear_range[1], 0.0)))
         self.A, self.b = self._linear_u()
         ulo, uhi = self.form.u_bounds()
         self.Ax = self.A * (uhi - ulo)[None, :]
@@ -95,20 +105,20 @@ class Constraints:
 
     # ------------------------------------------------------------------ stability
     def slopes(self, theta: np.ndarray, n_grid: int | None = None) -> np.ndarray:
-        """Normalized finite-difference slopes dP/dlam / S of the elastic core (>= 0 is stable)."""
+        """Normalized finite-difference slopes dP/dlam / S (dtau/dgamma / S in simple shear) of the elastic
+        core (>= 0 is stable)."""
         if not self.hyperelastic:
             return np.zeros(0)
         n_grid = n_grid or self.n_grid
         try:
             el = self.form.elastic(theta)
         except ParameterError:
-            return -np.ones(len(self.modes) * len(self.ranges) * (n_grid - 1))
+            return -np.ones(len(self.grids) * (n_grid - 1))
         out = []
-        for lo, hi in self.ranges:
-            lam = np.linspace(lo, hi, n_grid)
-            for mode in self.modes:
-                P = elastic_stress(el, mode, lam)
-                out.append(np.diff(P) / np.diff(lam) / self.form.scale)
+        for mode, lo, hi in self.grids:
+            e = np.linspace(lo, hi, n_grid)
+            P = elastic_stress(el, mode, e)
+            out.append(np.diff(P) / np.diff(e) / self.form.scale)
         s = np.concatenate(out)
         return np.where(np.isfinite(s), s, -1.0)
 

@@ -19,8 +19,9 @@ import numpy as np
 
 from tissuempm.calibration.data import Curve
 from tissuempm.calibration.forms import ModelForm
-from tissuempm.calibration.forward import DEFAULT_MAX_INCREMENT, PreparedCurve
+from tissuempm.calibration.forward import DEFAULT_MAX_INCREMENT, FORWARDS, PreparedCurve, driver_response
 from tissuempm.materials.base import ParameterError
+from tissuempm.materials.drivers import DriverError
 
 
 def normalized_error(model: np.ndarray, measured: np.ndarray) -> float:
@@ -46,6 +47,9 @@ class CostFunction:
         Data sets (already resampled).
     max_increment
         Strain increment of the loading history of hyper-viscoelastic models.
+    forward
+        ``"closed_form"`` (incompressible closed forms and the eq. 41 integrator) or ``"driver"``
+        (the compressible 3-D driver on the whole material; see :mod:`tissuempm.calibration.forward`).
 
     Attributes
     ----------
@@ -56,11 +60,14 @@ class CostFunction:
     form: ModelForm
     curves: list[Curve]
     max_increment: float = DEFAULT_MAX_INCREMENT
+    forward: str = "closed_form"
     nfev: int = field(default=0, init=False)
 
     def __post_init__(self) -> None:
         if not self.curves:
             raise ValueError("no data sets to fit")
+        if self.forward not in FORWARDS:
+            raise ValueError(f"forward = {self.forward!r} is not valid: choose one of {', '.join(FORWARDS)}")
         if self.form.prony_terms:
             missing = [c.name for c in self.curves if c.strain_rate is None]
             if len(missing) == len(self.curves):
@@ -72,6 +79,9 @@ class CostFunction:
     def predictions(self, theta: np.ndarray) -> list[np.ndarray]:
         """Model stresses [Pa] per data set (raises ParameterError for invalid parameters)."""
         self.nfev += 1
+        if self.forward == "driver":
+            material = self.form.material(theta)
+            return [driver_response(material, c.strain, c.strain_rate, c.mode, self.max_increment) for c in self.curves]
         el = self.form.elastic(theta)
         g, tau = self.form.prony(theta)
         return [p.predict(el, g, tau) for p in self.prepared]
@@ -84,7 +94,7 @@ class CostFunction:
         """Total cost O (eq. 54); ``inf`` for parameters the material rejects or non-finite stresses."""
         try:
             o = total_cost(self.costs(theta), self.weights)
-        except (ParameterError, FloatingPointError, ZeroDivisionError, OverflowError):
+        except (ParameterError, DriverError, FloatingPointError, ZeroDivisionError, OverflowError):
             return np.inf
         return o if np.isfinite(o) else np.inf
 

@@ -4,18 +4,30 @@ A data set (:class:`Curve`) is one monotonic loading curve: engineering strain
 ``eps`` [-] and nominal (first Piola-Kirchhoff) stress ``P`` [Pa], tension
 positive and compression negative (Brewick et al. 2017, Fig. 13), the loading
 ``mode`` and the engineering strain rate ``d eps/dt`` [1/s] (``None`` for a
-quasi-static, fully relaxed test). The curve used in the cost is the measured
-one linearly interpolated to ``points`` equally spaced strains between its first
-and last strain (default 20, as in the report, Sec. 2.3.2).
+quasi-static, fully relaxed test).
+
+Simple shear (``mode = "simple_shear"``, alias ``"shear"``): ``strain`` is the
+engineering shear strain ``gamma = F12`` of ``F = I + gamma e1 (x) e2`` [-] and
+``stress`` the shear stress ``tau = sigma12`` [Pa] (for simple shear J = 1 and
+P12 = sigma12, so the nominal and the Cauchy shear stress are the same number);
+the rate is ``d gamma/dt`` [1/s]. Gamma is not a stretch: it may be below -1.
+
+The curve used in the cost is the measured one linearly interpolated to ``points``
+equally spaced strains between its first and last strain (default 20, as in the
+report, Sec. 2.3.2).
 
 CSV format
 ----------
 Comma-separated with a header row. Columns (case-insensitive):
 
-* ``strain`` (engineering strain) **or** ``stretch`` (lam = 1 + strain);
-* ``stress`` (nominal stress);
+* ``strain`` (engineering strain) **or** ``stretch`` (lam = 1 + strain); for simple
+  shear ``strain``, ``shear_strain`` or ``gamma``;
+* ``stress`` (nominal stress); for simple shear ``stress``, ``shear_stress`` or ``tau``;
 * optional ``mode`` (``uniaxial``, ``tension``, ``compression``, ``equibiaxial``,
-  ``pure_shear``): each mode becomes its own data set.
+  ``pure_shear``, ``simple_shear``/``shear``): each mode becomes its own data set.
+
+A file whose columns are named ``gamma``/``shear_strain`` or ``tau``/``shear_stress`` is
+simple-shear data unless a mode says otherwise (a stretch mode with these columns is an error).
 
 A unit can be appended to a column name (``stress_MPa``, ``nominal_stress_kPa``,
 ``strain_percent``). Lines starting with ``#`` are comments; a comment of the form
@@ -44,8 +56,10 @@ STRESS_UNITS: dict[str, float] = {"pa": 1.0, "kpa": 1.0e3, "mpa": 1.0e6, "gpa": 
 """Factors to Pa."""
 STRAIN_UNITS: dict[str, float] = {"1": 1.0, "-": 1.0, "percent": 0.01, "%": 0.01}
 """Factors to engineering strain [-] (stretch columns take no unit)."""
-MODES: tuple[str, ...] = ("uniaxial", "equibiaxial", "pure_shear")
-"""Loading modes of the forward models (all incompressible, homogeneous)."""
+STRETCH_MODES: tuple[str, ...] = ("uniaxial", "equibiaxial", "pure_shear")
+"""Modes whose strain is a stretch along e1 (lam = 1 + strain, lateral faces traction free)."""
+MODES: tuple[str, ...] = (*STRETCH_MODES, "simple_shear")
+"""Loading modes of the forward models (homogeneous; simple shear: F = I + gamma e1 (x) e2)."""
 MODE_ALIASES: dict[str, str] = {
     "tension": "uniaxial",
     "compression": "uniaxial",
@@ -54,7 +68,14 @@ MODE_ALIASES: dict[str, str] = {
     "biaxial": "equibiaxial",
     "pure_shear": "pure_shear",
     "planar": "pure_shear",
+    "simple_shear": "simple_shear",
+    "shear": "simple_shear",
 }
+"""Accepted mode names (config ``mode``, CSV ``mode`` column or comment) and the mode each one means."""
+STRAIN_COLUMNS: tuple[str, ...] = ("strain", "shear_strain", "gamma")
+STRESS_COLUMNS: tuple[str, ...] = ("stress", "shear_stress", "tau")
+SHEAR_COLUMNS: frozenset[str] = frozenset({"shear_strain", "gamma", "shear_stress", "tau"})
+"""Column names that only simple-shear data use."""
 DEFAULT_POINTS = 20
 
 
@@ -71,13 +92,14 @@ class Curve:
     name
         Label used in tables and plots.
     strain
-        Engineering strain [-], shape (N,), monotonic, compression negative.
+        Engineering strain [-] (shear strain gamma in simple shear), shape (N,), monotonic,
+        compression negative.
     stress
-        Nominal stress [Pa], shape (N,).
+        Nominal stress [Pa] (shear stress tau = sigma12 in simple shear), shape (N,).
     strain_rate
         Engineering strain rate [1/s], same sign as the strain; ``None`` = quasi-static.
     mode
-        ``"uniaxial"``, ``"equibiaxial"`` or ``"pure_shear"``.
+        ``"uniaxial"``, ``"equibiaxial"``, ``"pure_shear"`` or ``"simple_shear"``.
     weight
         Weight w_m of the data set in the total cost (seed 004 eq. 54).
     """
@@ -94,7 +116,9 @@ class Curve:
 
     @property
     def stretch(self) -> np.ndarray:
-        """Stretch lam = 1 + strain."""
+        """Stretch lam = 1 + strain (stretch modes only)."""
+        if self.mode == "simple_shear":
+            raise ValueError(f"{self.name}: simple-shear data have a shear strain gamma, not a stretch")
         return 1.0 + self.strain
 
     @property
@@ -134,10 +158,10 @@ def validate_curve(c: Curve) -> None:
             f"{c.name}: strain must be strictly monotonic (loading curve); it is not at data row {k + 2} "
             f"(strain {eps[k]:g} -> {eps[k + 1]:g})"
         )
-    if np.any(1.0 + eps <= 0.0):
-        raise DataError(f"{c.name}: strain must be > -1 (stretch > 0)")
     if c.mode not in MODES:
         raise DataError(f"{c.name}: mode = {c.mode!r} is not valid: choose one of {', '.join(MODE_ALIASES)}")
+    if c.mode != "simple_shear" and np.any(1.0 + eps <= 0.0):
+        raise DataError(f"{c.name}: strain must be > -1 (stretch > 0) in {c.mode} mode")
     if not (np.isfinite(c.weight) and c.weight > 0):
         raise DataError(f"{c.name}: weight = {c.weight!r} must be > 0")
     if c.strain_rate is not None:
@@ -236,34 +260,44 @@ def read_csv(
         base, unit = _unit_from_name(h)
         base = base.replace("nominal_", "").replace("engineering_", "")
         cols[base] = (i, unit)
-    if "stress" not in cols:
-        raise DataError(f"{path}: missing column 'stress' (found: {', '.join(header)})")
-    if "strain" not in cols and "stretch" not in cols:
-        raise DataError(f"{path}: missing column 'strain' or 'stretch' (found: {', '.join(header)})")
-    s_unit = stress_unit or cols["stress"][1] or meta.get("stress_unit", "Pa")
+    stress_col = next((c for c in STRESS_COLUMNS if c in cols), None)
+    strain_col = next((c for c in (*STRAIN_COLUMNS, "stretch") if c in cols), None)
+    if stress_col is None:
+        raise DataError(f"{path}: missing column 'stress' (or 'shear_stress', 'tau'; found: {', '.join(header)})")
+    if strain_col is None:
+        raise DataError(
+            f"{path}: missing column 'strain' or 'stretch' (or 'shear_strain', 'gamma'; found: {', '.join(header)})"
+        )
+    s_unit = stress_unit or cols[stress_col][1] or meta.get("stress_unit", "Pa")
     sf = stress_factor(s_unit)
-    kind = "strain" if "strain" in cols else "stretch"
-    e_unit = strain_unit or cols[kind][1] or meta.get("strain_unit", "1")
-    ef = strain_factor(e_unit) if kind == "strain" else 1.0
+    e_unit = strain_unit or cols[strain_col][1] or meta.get("strain_unit", "1")
+    ef = strain_factor(e_unit) if strain_col != "stretch" else 1.0
+    shear_columns = sorted(SHEAR_COLUMNS & {stress_col, strain_col})
     if strain_rate is None and "strain_rate" in meta:
         try:
             strain_rate = float(meta["strain_rate"])
         except ValueError:
             raise DataError(f"{path}: strain_rate comment {meta['strain_rate']!r} is not a number") from None
-    mode = mode or meta.get("mode")
+    mode = mode or meta.get("mode") or ("simple_shear" if shear_columns else None)
 
     groups: dict[str, list[tuple[float, float]]] = {}
     for r, row in enumerate(rows[1:], start=2):
         if len(row) < len(header):
             raise DataError(f"{path}: row {r} has {len(row)} values, expected {len(header)}")
         try:
-            x = float(row[cols[kind][0]])
-            y = float(row[cols["stress"][0]])
+            x = float(row[cols[strain_col][0]])
+            y = float(row[cols[stress_col][0]])
         except ValueError:
             raise DataError(f"{path}: row {r} has a non-numeric value: {row}") from None
         m = row[cols["mode"][0]].strip().lower() if "mode" in cols else (mode or "uniaxial")
         if m not in MODE_ALIASES:
             raise DataError(f"{path}: row {r}: unknown mode {m!r}: valid are {', '.join(MODE_ALIASES)}")
+        if MODE_ALIASES[m] == "simple_shear" and strain_col == "stretch":
+            raise DataError(f"{path}: row {r}: simple-shear data need a shear strain column "
+                            f"('strain', 'shear_strain' or 'gamma'), not 'stretch'")
+        if MODE_ALIASES[m] != "simple_shear" and shear_columns:
+            raise DataError(f"{path}: row {r}: mode {m!r} is a stretch mode but the file has the simple-shear "
+                            f"column(s) {', '.join(shear_columns)}; use mode = 'simple_shear' (alias 'shear')")
         groups.setdefault(m, []).append((x, y))
     if not groups:
         raise DataError(f"{path}: no data rows")
@@ -271,7 +305,7 @@ def read_csv(
     base_name = name or path.stem
     for m, pts in groups.items():
         a = np.array(pts, dtype=float)
-        eps = a[:, 0] * ef if kind == "strain" else a[:, 0] - 1.0
+        eps = a[:, 0] * ef if strain_col != "stretch" else a[:, 0] - 1.0
         sig = a[:, 1] * sf
         if positive_compression:
             eps, sig = -eps, -sig

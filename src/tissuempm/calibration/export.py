@@ -11,9 +11,20 @@ Conventions
   ``G_i = g_i G0``, ``BETA_i = 1/tau_i``, elastic moduli multiplied by ``g_inf`` (exact in the
   linear limit; see :mod:`tissuempm.materials.viscoelastic`). ``PR`` is Poisson's ratio from K
   and G0. ``*EOS_GRUNEISEN`` takes C = c0, S1 = s, GAMAO = Gamma0.
+* LS-DYNA ``*MAT_ANISOTROPIC_HYPERELASTIC`` (MAT_295) for HGO: see :func:`_mat295_hgo`
+  (isotropic module ITYPE = -2, Yeoh, with c1 = C10; anisotropic module ATYPE = -1, one
+  fiber family with the structure-tensor parameters A = kappa, B = 1 - 3 kappa and FTYPE = 1
+  (HGO fiber, K1 = k1, K2 = k2); NU from K and G0 = 2 C10).
 * FEBio: uncoupled ``Ogden`` with ``c_i = 2 mu_i`` and ``m_i = alpha_i``; ``Mooney-Rivlin``
-  with c1 = C10, c2 = C01; viscoelastic ``G(t) = g0 + sum g_i exp(-t/t_i)`` with
-  ``g0 = g_inf`` around the instantaneous law.
+  with c1 = C10, c2 = C01; uncoupled ``Yeoh`` with c_i = C_i0 (i <= 6: Yeoh and reduced
+  polynomial); ``polynomial`` (FEBio's coupled class FEPolynomialHyperElastic, isochoric
+  invariants) with c10, c01, c20, c11, c02 and its own volumetric coefficient ``D1`` of
+  U = D1 (J - 1)^2, so **FEBio D1 = K/2** (not Abaqus' D1 = 2/K); ``Holzapfel-Gasser-Ogden``
+  with c = 2 C10; viscoelastic ``G(t) = g0 + sum g_i exp(-t/t_i)`` with ``g0 = g_inf`` around
+  the instantaneous law (``uncoupled viscoelastic`` around uncoupled laws, ``viscoelastic``
+  around ``polynomial`` and ``isotropic elastic``). FEBio's uncoupled laws take the bulk
+  modulus ``k`` with U = (k/2)(ln J)^2 (FEUncoupledMaterial), tissuempm's ``volumetric = "log"``
+  form; the ``"abaqus"`` form has the same K at J = 1.
 
 Units: LS-DYNA has no unit system of its own; ``units`` selects one of :data:`UNIT_SYSTEMS`
 and every value is converted from SI. Abaqus and FEBio cards are written in SI.
@@ -111,18 +122,80 @@ def read_abaqus(text: str) -> dict[str, Any]:
 
 # ---------------------------------------------------------------------- LS-DYNA
 def _card(values: list[Any]) -> str:
-    """One fixed-format card: 8 fields of 10 characters."""
+    """One fixed-format card: 8 fields of 10 characters (strings left-justified, numbers right-justified,
+    reals with as many significant digits as fit)."""
     cells = []
     for v in values:
-        s = "" if v is None else (str(v) if isinstance(v, int) else f"{v:.4E}" if abs(v) >= 1e6 or (v != 0 and abs(v) < 1e-3) else f"{v:.6g}")
-        if len(s) > 10:
-            s = f"{v:.3E}"
+        if isinstance(v, str):
+            cells.append(v.ljust(10))
+            continue
+        if v is None:
+            s = ""
+        elif isinstance(v, int):
+            s = str(v)
+        else:  # the most significant digits that fit (nu = 0.4999995 must not round to 0.5)
+            s = next(t for t in (f"{v:.{p}g}" for p in range(9, 0, -1)) if len(t) <= 10)
         cells.append(s.rjust(10))
     return "".join(cells)
 
 
+def poisson_ratio(K: float, G: float) -> float:
+    """Poisson's ratio nu = (3K - 2G) / (6K + 2G) of an isotropic solid with bulk modulus K and shear modulus G."""
+    return (3.0 * K - 2.0 * G) / (6.0 * K + 2.0 * G)
+
+
+def _mat295_hgo(el: Material, mid: int, rho: float, stress: float) -> list[str]:
+    """``*MAT_ANISOTROPIC_HYPERELASTIC`` (MAT_295) cards of an HGO law, one fiber family along the a-axis.
+
+    Card layout as in the LS-DYNA keyword manual (Vol. II, MAT_295) and Ansys' ``pydyna`` keyword
+    classes: ``MID RHO AOPT`` / ``ISO ITYPE BETA NU`` / isotropic parameters / ``ANISO ATYPE
+    INTYPE NF`` / per fiber ``THETA A B`` and ``FTYPE FCID K1 K2`` / the AOPT = 2 axes
+    ``XP YP ZP A1 A2 A3 MACF`` and ``V1 V2 V3 D1 D2 D3 BETA REF``. Mapping:
+
+    * matrix C10 (I1b - 3): isotropic module ITYPE = -2 (Yeoh, W = sum c_i (I1b - 3)^i) with
+      c1 = C10, c2 = c3 = 0. Yeoh's c_i carry no convention factor, unlike Ogden's mu_i;
+    * NU = (3K - 2 G0)/(6K + 2 G0), G0 = 2 C10: LS-DYNA derives the bulk modulus from NU, so K at
+      J = 1 is reproduced; BETA (the volumetric-function coefficient) is 0. The volumetric function
+      behind BETA could not be checked against the manual text here, so U(J) away from J = 1 may
+      differ from tissuempm's ``volumetric`` form (negligible for nearly incompressible tissue);
+    * fiber family: ATYPE = -1 (generalized structure tensor H = A I + B a0 (x) a0, Holzapfel et al.),
+      INTYPE = 0, NF = 1, THETA = 0 (along the material a-axis), A = kappa, B = 1 - 3 kappa, so that
+      H : C - 1 = kappa (I1 - 3) + (1 - 3 kappa)(I4 - 1) is the HGO fiber strain E; FTYPE = 1 (HGO
+      fiber, W = k1/(2 k2) (exp(k2 <E>^2) - 1)), FCID = 0, K1 = k1, K2 = k2;
+    * AOPT = 2 with a = e1, d = e2: the fibers run along global x. Replace these two cards (or
+      AOPT) with the part's own fiber directions.
+
+    Unverified here (no manual text at hand): ITYPE = -2 is the only Yeoh code listed; for ATYPE the
+    keyword documentation lists "EQ.-1/+1" with the sign choosing the compressible or the nearly
+    incompressible formulation, and -1 follows the published decks that pair it with a negative
+    ITYPE. Check both signs and BETA against the manual of the LS-DYNA version in use. MAT_295
+    is written without Prony terms, so a viscoelastic HGO is not exported.
+    """
+    G0 = 2.0 * el.C10
+    return [
+        "*MAT_ANISOTROPIC_HYPERELASTIC",
+        "$      MID       RHO      AOPT",
+        _card([mid, rho, 2.0]),
+        "$    TITLE     ITYPE      BETA        NU",
+        _card(["ISO", -2, 0.0, poisson_ratio(el.K, G0)]),
+        "$       C1        C2        C3",
+        _card([el.C10 / stress, 0.0, 0.0]),
+        "$    TITLE     ATYPE    INTYPE        NF",
+        _card(["ANISO", -1, 0, 1]),
+        "$    THETA         A         B",
+        _card([0.0, el.kappa, 1.0 - 3.0 * el.kappa]),
+        "$    FTYPE      FCID        K1        K2",
+        _card([1, 0, el.k1 / stress, el.k2]),
+        "$       XP        YP        ZP        A1        A2        A3      MACF",
+        _card([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1]),
+        "$       V1        V2        V3        D1        D2        D3      BETA       REF",
+        _card([0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]),
+    ]
+
+
 def lsdyna_cards(material: Material, mid: int = 1, units: str = "SI") -> str:
-    """LS-DYNA keywords (``*MAT_OGDEN_RUBBER``, ``*MAT_ELASTIC``, ``*EOS_GRUNEISEN``) in ``units``."""
+    """LS-DYNA keywords (``*MAT_OGDEN_RUBBER``, ``*MAT_ANISOTROPIC_HYPERELASTIC``, ``*MAT_ELASTIC``,
+    ``*MAT_GENERAL_VISCOELASTIC``, ``*MAT_NULL`` + ``*EOS_GRUNEISEN``) in ``units``."""
     if units not in UNIT_SYSTEMS:
         raise ValueError(f"units = {units!r}: valid are {', '.join(UNIT_SYSTEMS)}")
     u = UNIT_SYSTEMS[units]
@@ -132,13 +205,16 @@ def lsdyna_cards(material: Material, mid: int = 1, units: str = "SI") -> str:
     out = [f"$ tissuempm export, units {units}"]
     if el.kind == "ogden":
         G0 = sum(el.mu)
-        nu = (3 * el.K - 2 * G0) / (6 * el.K + 2 * G0)
         mu_dyna = [2.0 * m / a * g_inf / u["stress"] for m, a in zip(el.mu, el.alpha)]
-        out += ["*MAT_OGDEN_RUBBER", _card([mid, rho, nu, 0, len(g), None, None, None])]
+        out += ["*MAT_OGDEN_RUBBER", _card([mid, rho, poisson_ratio(el.K, G0), 0, len(g), None, None, None])]
         out.append(_card(mu_dyna + [0.0] * (8 - len(mu_dyna))))
         out.append(_card(list(el.alpha) + [0.0] * (8 - len(el.alpha))))
         for gi, ti in zip(g, tau):
             out.append(_card([gi * G0 / u["stress"], u["time"] / ti]))
+    elif el.kind == "hgo":
+        if g:
+            raise ValueError("no LS-DYNA export for a viscoelastic HGO (MAT_295 is written without Prony terms)")
+        out += _mat295_hgo(el, mid, rho, u["stress"])
     elif el.kind == "linear_elastic":
         if g:
             K = el.E / (3 * (1 - 2 * el.nu)) / u["stress"]
@@ -157,9 +233,19 @@ def lsdyna_cards(material: Material, mid: int = 1, units: str = "SI") -> str:
     return "\n".join(out) + "\n*END\n"
 
 
-def read_lsdyna(text: str) -> dict[str, list[list[float]]]:
-    """Parse fixed-format cards into ``{keyword: [card values...]}`` (blank fields as None)."""
-    out: dict[str, list[list[float | None]]] = {}
+def _cell(text: str) -> float | str | None:
+    """A fixed-format field: a number, a title word (``ISO``, ``ANISO``) or None when blank."""
+    if not text:
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def read_lsdyna(text: str) -> dict[str, list[list[float | str | None]]]:
+    """Parse fixed-format cards into ``{keyword: [card values...]}`` (blank fields as None, titles as str)."""
+    out: dict[str, list[list[float | str | None]]] = {}
     key = None
     for ln in text.splitlines():
         if not ln.strip() or ln.startswith("$"):
@@ -169,11 +255,15 @@ def read_lsdyna(text: str) -> dict[str, list[list[float]]]:
             out[key] = []
             continue
         cells = [ln[i : i + 10].strip() for i in range(0, len(ln), 10)]
-        out[key].append([float(c) if c else None for c in cells])
+        out[key].append([_cell(c) for c in cells])
     return out
 
 
 # ---------------------------------------------------------------------- FEBio
+_FEBIO_COUPLED: frozenset[str] = frozenset({"linear_elastic", "polynomial"})
+"""Kinds whose FEBio material is not an uncoupled one (wrapped in ``viscoelastic``, not ``uncoupled viscoelastic``)."""
+
+
 def _elastic_xml(el: Material, tag: str = "material") -> ET.Element:
     e = ET.Element(tag)
     kind = el.kind
@@ -192,6 +282,17 @@ def _elastic_xml(el: Material, tag: str = "material") -> ET.Element:
         p("c1", el.C10)
         p("c2", getattr(el, "C01", 0.0))
         p("k", el.K)
+    elif kind in ("yeoh", "reduced_polynomial"):
+        e.set("type", "Yeoh")  # FEYeoh: W = sum_i c_i (I1b - 3)^i, i <= 6
+        coefficients = el.C if kind == "reduced_polynomial" else (el.C10, el.C20, el.C30)
+        for i, c in enumerate(coefficients, start=1):
+            p(f"c{i}", c)
+        p("k", el.K)
+    elif kind == "polynomial":
+        e.set("type", "polynomial")  # FEPolynomialHyperElastic: U = D1 (J - 1)^2, so D1 = K/2
+        for name in ("c10", "c01", "c20", "c11", "c02"):
+            p(name, getattr(el, name.upper()))
+        p("D1", 0.5 * el.K)
     elif kind == "hgo":
         e.set("type", "Holzapfel-Gasser-Ogden")
         p("c", 2.0 * el.C10)
@@ -213,7 +314,7 @@ def febio_xml(material: Material, name: str = "tissue", mat_id: int = 1) -> str:
     """FEBio ``<material>`` element (SI)."""
     el, g, tau, _ = _split(material)
     if g:
-        uncoupled = el.kind != "linear_elastic"
+        uncoupled = el.kind not in _FEBIO_COUPLED
         root = ET.Element("material", id=str(mat_id), name=name,
                           type="uncoupled viscoelastic" if uncoupled else "viscoelastic")
         ET.SubElement(root, "density").text = f"{material.density:.10g}"

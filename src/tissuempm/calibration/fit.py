@@ -21,7 +21,7 @@ from tissuempm.calibration.constraints import STABILITY_MODES, Constraints
 from tissuempm.calibration.cost import CostFunction
 from tissuempm.calibration.data import Curve
 from tissuempm.calibration.forms import ModelForm, modulus_scale, time_range
-from tissuempm.calibration.forward import DEFAULT_MAX_INCREMENT
+from tissuempm.calibration.forward import DEFAULT_MAX_INCREMENT, shear_stretches
 from tissuempm.calibration.optimizers import LocalMinimum, Problem, SearchResult, SearchSettings, search
 from tissuempm.materials.base import Material
 
@@ -38,11 +38,14 @@ def make_form(
     nu: float = 0.3,
     bounds: dict[str, tuple[float, float]] | None = None,
     fixed: dict[str, Any] | None = None,
+    fit_bulk_modulus: bool = False,
 ) -> ModelForm:
     """A model form whose default bounds are scaled to the data (modulus scale and time range).
 
     ``K`` (default 2.19 GPa, the report's soft-tissue bulk modulus), ``density`` and
     ``volumetric`` are fixed for hyperelastic cores, ``nu`` for a linear elastic core.
+    ``fit_bulk_modulus`` makes K a fitted parameter (``K`` is then only the start value); it
+    needs the compressible ``forward = "driver"`` model, since the closed forms do not depend on K.
     """
     fx: dict[str, Any] = {"density": density}
     if form == "linear_elastic":
@@ -52,7 +55,7 @@ def make_form(
     fx.update(fixed or {})
     return ModelForm(
         form, terms, prony_terms, scale=modulus_scale(curves), time_range=time_range(curves),
-        fixed=fx, bounds=dict(bounds or {}),
+        fixed=fx, bounds=dict(bounds or {}), fit_bulk_modulus=fit_bulk_modulus,
     )
 
 
@@ -122,9 +125,25 @@ class FitResult:
 
 
 def stretch_range(curves: Sequence[Curve]) -> tuple[float, float]:
-    """(lowest, highest) stretch of the data sets, 1 included."""
-    lam = np.concatenate([c.stretch for c in curves] + [np.ones(1)])
+    """(lowest, highest) principal stretch of the data sets, 1 included.
+
+    Stretch modes contribute lam = 1 + strain; simple shear the in-plane principal stretches
+    lam_1,2 = sqrt(1 + gamma^2/4) +- gamma/2 it reaches (:func:`~tissuempm.calibration.forward.shear_stretches`).
+    """
+    lam = [np.ones(1)]
+    for c in curves:
+        lam += list(shear_stretches(c.strain)) if c.mode == "simple_shear" else [c.stretch]
+    lam = np.concatenate(lam)
     return float(lam.min()), float(lam.max())
+
+
+def shear_range(curves: Sequence[Curve]) -> tuple[float, float] | None:
+    """(lowest, highest) shear strain gamma of the simple-shear data sets, 0 included; None without any."""
+    g = [c.strain for c in curves if c.mode == "simple_shear"]
+    if not g:
+        return None
+    g = np.concatenate(g + [np.zeros(1)])
+    return float(g.min()), float(g.max())
 
 
 def build_problem(
@@ -134,10 +153,15 @@ def build_problem(
     stability_range: tuple[float, float] | None = None,
     stability_modes: Sequence[str] = STABILITY_MODES,
     max_increment: float = DEFAULT_MAX_INCREMENT,
+    forward: str = "closed_form",
 ) -> Problem:
     """Objective and constraints of a fit."""
-    cost = CostFunction(form, list(curves), max_increment)
-    cons = Constraints(form, stretch_range(curves), stability_range, tuple(stability_modes))
+    if form.fit_bulk_modulus and forward != "driver":
+        raise ValueError("fit_bulk_modulus needs forward = 'driver': the incompressible closed forms do not "
+                         "depend on the bulk modulus K, so K cannot be identified")
+    cost = CostFunction(form, list(curves), max_increment, forward)
+    cons = Constraints(form, stretch_range(curves), stability_range, tuple(stability_modes),
+                       shear_range=shear_range(curves))
     return Problem(cost, cons)
 
 
@@ -149,16 +173,18 @@ def fit(
     stability_range: tuple[float, float] | None = None,
     stability_modes: Sequence[str] = STABILITY_MODES,
     max_increment: float = DEFAULT_MAX_INCREMENT,
+    forward: str = "closed_form",
     progress: Callable[[int, int, float], None] | None = None,
 ) -> FitResult:
     """Fit ``form`` to ``curves`` with a constrained global search (seed 004 Sec. 2.3).
 
+    ``forward`` selects the forward model (:data:`tissuempm.calibration.forward.FORWARDS`).
     Returns the best feasible minimum as a new frozen material; raises RuntimeError when
     no local run ends at parameters satisfying every constraint.
     """
     settings = settings or SearchSettings()
     problem = build_problem(form, curves, stability_range=stability_range, stability_modes=stability_modes,
-                            max_increment=max_increment)
+                            max_increment=max_increment, forward=forward)
     res = search(problem, settings, progress)
     best = res.best
     theta = best.theta

@@ -139,6 +139,11 @@ class ModelForm:
         Fixed material fields (``K``, ``density``, ``nu``, ``volumetric``, HGO's extras, ...).
     bounds
         User bounds ``{name: (lo, hi)}``; ``name`` is a field (all its terms) or ``field[i]``.
+    fit_bulk_modulus
+        Fit the bulk modulus ``K`` too (log scale, default bounds [0.3 S, 1e5 S]: Poisson's ratio
+        from -0.29 to 0.499995 for a shear modulus equal to S; start: the fixed ``K``); only the
+        compressible driver forward model depends on K. Not available for a linear elastic core
+        (its nu is fixed).
     """
 
     form: str
@@ -148,6 +153,7 @@ class ModelForm:
     time_range: tuple[float, float] = (1e-6, 1e3)
     fixed: dict[str, Any] = field(default_factory=dict)
     bounds: dict[str, tuple[float, float]] = field(default_factory=dict)
+    fit_bulk_modulus: bool = False
 
     def __post_init__(self) -> None:
         if self.form not in FORMS:
@@ -160,6 +166,10 @@ class ModelForm:
             raise ValueError(f"prony_terms = {self.prony_terms}: valid are 0..12")
         t_lo, t_hi = self.time_range
         params = _elastic_params(self.form, self.terms, self.scale)
+        if self.fit_bulk_modulus:
+            if self.form == "linear_elastic":
+                raise ValueError("fit_bulk_modulus is not available for linear_elastic (E and a fixed nu)")
+            params.append(Param("K", "Pa", 0.3 * self.scale, 1.0e5 * self.scale, log=True))
         for j in range(self.prony_terms):
             params.append(Param(f"g[{j}]", "1", 1e-6, 1.0 - 1e-6))
         for j in range(self.prony_terms):
@@ -247,6 +257,8 @@ class ModelForm:
                 v = 0.1
             elif p.field == "k2":
                 v = 1.0
+            elif p.field == "K":
+                v = float(self.fixed.get("K", 100.0 * self.scale))
             else:
                 v = self.scale if p.unit == "Pa" else 0.5 * (p.lower + p.upper)
             out.append(min(max(v, p.lower), p.upper))
@@ -318,7 +330,8 @@ class ModelForm:
 
 
 def modulus_scale(curves) -> float:
-    """Shear-like modulus scale [Pa] of data sets: median initial secant modulus |P| / |strain| / 3.
+    """Shear-like modulus scale [Pa] of data sets: median initial secant modulus |P| / |strain| / 3
+    (|tau| / |gamma| for simple-shear data, whose secant is the shear modulus itself).
 
     The secant is taken at the first point beyond 10 % of each curve's largest |strain|, so that
     strongly stiffening data (HGO, polynomial) do not inflate the scale.
@@ -329,7 +342,7 @@ def modulus_scale(curves) -> float:
         sel = np.flatnonzero(a >= 0.1 * a.max())
         k = int(sel[np.argmin(a[sel])]) if sel.size else int(np.argmax(a))
         if c.strain[k] != 0:
-            vals.append(abs(c.stress[k] / c.strain[k]) / 3.0)
+            vals.append(abs(c.stress[k] / c.strain[k]) / (1.0 if c.mode == "simple_shear" else 3.0))
     if not vals:
         raise ValueError("cannot estimate a modulus scale: every data set has zero strain")
     return float(np.median(vals))

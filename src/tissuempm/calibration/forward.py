@@ -1,11 +1,22 @@
 """Forward models of homogeneous loading used by the calibration (one code for fitting and simulation).
 
-Elastic part
-------------
-The instantaneous (elastic) nominal stress ``P0(lam)`` comes from the material
+Two forward models are available (``forward`` argument, config key ``[model] forward``):
+
+``"closed_form"`` (default)
+    Incompressible closed forms, evaluated in NumPy (fast; the bulk modulus K plays no role).
+``"driver"``
+    The compressible 3-D material point driver :func:`tissuempm.materials.drivers.stress_strain`,
+    which runs the law's own Warp stress function (the code the MPM solver runs) with the lateral
+    stresses solved to zero. It sees a finite K, and with Prony terms it integrates the 3-D
+    ``Viscoelastic`` law (relaxation of the isochoric stress, Simo 1987) instead of eq. 41.
+
+Elastic part (closed forms)
+---------------------------
+The instantaneous (elastic) nominal stress ``P0`` comes from the material
 classes' own incompressible closed forms, ``material.nominal_stress_incompressible(mode, lam)``
 (Ogden eq. 19, polynomial family eqs 21-26, HGO), so the calibration evaluates the same
 constitutive core as the solver. A linear elastic core (bone, eq. 11) gives ``P0 = E eps``.
+Simple shear has its own closed forms (:func:`simple_shear_stress`, derivation there).
 
 Viscoelastic part (seed 004 eqs 7, 11, 36-41)
 ---------------------------------------------
@@ -30,7 +41,8 @@ linear filter (``scipy.signal.lfilter``, O(n)), otherwise as
 strain history makes P0 piecewise linear in time and the result is exact. For a
 nonlinear core P0(lam(t)) is sampled at strain increments of at most ``max_increment``;
 the error then depends on the strain increment only, O(d_eps^2), never on the time step
-or the rate (see ``tests/calibration/test_forward.py``).
+or the rate (see ``tests/calibration/test_forward.py``). Simple-shear data use the same
+integrator on the elastic shear stress history tau0(gamma(t)) (:func:`simple_shear_stress`).
 """
 
 from __future__ import annotations
@@ -42,26 +54,119 @@ import numpy as np
 from scipy import signal
 
 from tissuempm.calibration.data import Curve
+from tissuempm.materials import HGO, LinearElastic, Ogden
+from tissuempm.materials.drivers import DriverError, stress_strain
+from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
 
 DEFAULT_MAX_INCREMENT = 0.0025
 """Largest strain increment of the sampled loading history (hyper-viscoelastic models)."""
+FORWARDS: tuple[str, ...] = ("closed_form", "driver")
+"""Forward models: incompressible closed forms, or the compressible 3-D driver (module docstring)."""
+DRIVER_TOL = 1.0e-12
+"""Relative tolerance of the driver's lateral equilibrium in calibration (see :func:`driver_response`);
+1e-13 is below the round-off floor at K = 2.19 GPa."""
 _BLOCK = 256
 
 
-def elastic_stress(elastic, mode: str, stretch: np.ndarray) -> np.ndarray:
-    """Instantaneous nominal stress P0 [Pa] of an elastic core at ``stretch`` in ``mode``.
+def shear_stretches(gamma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """In-plane principal stretches (lam_1, lam_2) of simple shear, lam_1,2 = sqrt(1 + gamma^2/4) +- gamma/2.
 
-    Uses ``elastic.nominal_stress_incompressible`` (hyperelastic laws); a linear elastic
-    core (attribute ``E``) gives the small-strain uniaxial stress ``E (lam - 1)``.
+    They are the square roots of the eigenvalues of the in-plane block [[1 + gamma^2, gamma], [gamma, 1]]
+    of B = F F^T (lam_1 lam_2 = 1, lam_1 - lam_2 = gamma, lam_3 = 1).
     """
-    lam = np.asarray(stretch, dtype=float)
+    g = np.asarray(gamma, dtype=float)
+    root = np.sqrt(1.0 + 0.25 * g * g)
+    return root + 0.5 * g, root - 0.5 * g
+
+
+def simple_shear_stress(elastic, gamma: np.ndarray) -> np.ndarray:
+    """Incompressible elastic shear stress tau0 = sigma12 = P12 [Pa] in simple shear.
+
+    Kinematics: F = I + gamma e1 (x) e2 (J = 1, fully prescribed), so
+
+        B = F F^T = I + gamma (e1 (x) e2 + e2 (x) e1) + gamma^2 e1 (x) e1,
+        B^-1 = I - gamma (e1 (x) e2 + e2 (x) e1) + gamma^2 e2 (x) e2,
+        I1 = tr B = 3 + gamma^2,   I2 = (I1^2 - tr B^2)/2 = 3 + gamma^2.
+
+    The pressure multiplies I and never enters the 12 component, so no lateral condition is
+    needed (the normal stresses, which carry the Poynting effect, are not fitted). Since
+    P = sigma F^-T with (F^-T)_22 = 1 and (F^-T)_12 = 0, P12 = sigma12: nominal and Cauchy shear
+    stress coincide.
+
+    * Isotropic invariant laws (neo-Hookean, Mooney-Rivlin, Yeoh, polynomial families;
+      sigma = -p I + 2 W1 B - 2 W2 B^-1)::
+
+          tau = 2 W1 gamma - 2 W2 (B^-1)_12 = 2 gamma (W1 + W2),   W_i = dW/dI_i at I1 = I2 = 3 + gamma^2
+
+    * Ogden (principal-stretch law; beta(lam) = lam dW/dlam = sum_i (2 mu_i/alpha_i) lam^alpha_i,
+      Cauchy principal stresses sigma_a = beta(lam_a) - p). The in-plane principal stretches are
+      lam_1,2 = sqrt(1 + gamma^2/4) +- gamma/2 (:func:`shear_stretches`), lam_3 = 1, and the Eulerian
+      axis of lam_1 makes the angle theta with e1, tan 2 theta = 2 B12/(B11 - B22) = 2/gamma, so
+      sin 2 theta = 2/sqrt(4 + gamma^2) = 2/(lam_1 + lam_2). With sigma = sum_a sigma_a n_a (x) n_a::
+
+          tau = (sigma_1 - sigma_2) sin(2 theta)/2 = (beta(lam_1) - beta(lam_2)) / (lam_1 + lam_2)
+
+      (alpha = 2, one term: beta = mu lam^2 and tau = mu (lam_1 - lam_2) = mu gamma, neo-Hookean.)
+    * HGO with the fiber along the shear direction e1 (the convention of every HGO closed form
+      here, and the driver's default fiber): F a0 = a0, so I4 = 1 and the fiber strain is
+      E = kappa (I1 - 3) = kappa gamma^2; a0 (x) a0 has no 12 component, hence
+      tau = 2 gamma W1 with W1 = C10 + kappa psi'(E). Other fiber directions need the driver.
+    * Linear elastic core (small strain): tau = G gamma, G = E / (2 (1 + nu)).
+
+    Parameters
+    ----------
+    elastic
+        Elastic core (one of the laws above).
+    gamma
+        Engineering shear strain gamma = F12 [-].
+
+    Raises
+    ------
+    ValueError
+        For a law without a simple-shear closed form (the message names it and the mode).
+
+    References
+    ----------
+    Rivlin, R. S. (1948) Phil. Trans. R. Soc. A 241: 379-397 (simple shear of incompressible isotropic solids);
+    Ogden, R. W. (1984) Non-Linear Elastic Deformations, sec. 5.2 (simple shear, principal axes);
+    Gasser, Ogden & Holzapfel (2006) J. R. Soc. Interface 3: 15-35 (HGO fiber strain E).
+    """
+    g = np.asarray(gamma, dtype=float)
+    if isinstance(elastic, InvariantHyperelastic):
+        inv = 3.0 + g * g
+        W1, W2 = elastic.iso_derivatives(inv, inv)
+        return 2.0 * g * (W1 + W2)
+    if isinstance(elastic, Ogden):
+        lam1, lam2 = shear_stretches(g)
+        return (elastic.beta(lam1) - elastic.beta(lam2)) / (lam1 + lam2)
+    if isinstance(elastic, HGO):
+        W1, _ = elastic.iso_derivatives(3.0 + g * g, np.ones_like(g))
+        return 2.0 * g * W1
+    if isinstance(elastic, LinearElastic):
+        return elastic.E / (2.0 * (1.0 + elastic.nu)) * g
+    raise ValueError(
+        f"no simple_shear closed form for material kind {getattr(elastic, 'kind', type(elastic).__name__)!r}; "
+        f"use forward = 'driver'"
+    )
+
+
+def elastic_stress(elastic, mode: str, strain: np.ndarray) -> np.ndarray:
+    """Instantaneous nominal stress P0 [Pa] of an elastic core at engineering ``strain`` in ``mode``.
+
+    Stretch modes use ``elastic.nominal_stress_incompressible(mode, 1 + strain)`` (hyperelastic
+    laws); a linear elastic core gives the small-strain uniaxial stress ``E strain``. In simple
+    shear ``strain`` is gamma and the result the shear stress (:func:`simple_shear_stress`).
+    """
+    eps = np.asarray(strain, dtype=float)
+    if mode == "simple_shear":
+        return simple_shear_stress(elastic, eps)
     f = getattr(elastic, "nominal_stress_incompressible", None)
     if f is not None:
-        return np.asarray(f(mode, lam), dtype=float)
-    if hasattr(elastic, "E"):
+        return np.asarray(f(mode, 1.0 + eps), dtype=float)
+    if isinstance(elastic, LinearElastic):
         if mode != "uniaxial":
-            raise ValueError(f"a linear elastic core supports only uniaxial data, not {mode!r}")
-        return float(elastic.E) * (lam - 1.0)
+            raise ValueError(f"a linear elastic core supports only uniaxial and simple_shear data, not {mode!r}")
+        return elastic.E * eps
     raise TypeError(f"{type(elastic).__name__} has no incompressible closed form (nominal_stress_incompressible)")
 
 
@@ -173,15 +278,15 @@ class PreparedCurve:
         return self._history[0] / self.curve.strain_rate
 
     def predict(self, elastic, g=(), tau=()) -> np.ndarray:
-        """Model nominal stress [Pa] at the curve's strains for an elastic core and Prony terms."""
+        """Closed-form model stress [Pa] at the curve's strains for an elastic core and Prony terms."""
         c = self.curve
         g = np.asarray(g, dtype=float)
         if g.size == 0:
-            return elastic_stress(elastic, c.mode, c.stretch)
+            return elastic_stress(elastic, c.mode, c.strain)
         if c.strain_rate is None:  # quasi-static: fully relaxed
-            return (1.0 - g.sum()) * elastic_stress(elastic, c.mode, c.stretch)
+            return (1.0 - g.sum()) * elastic_stress(elastic, c.mode, c.strain)
         eps, idx = self._history
-        p0 = elastic_stress(elastic, c.mode, 1.0 + eps)
+        p0 = elastic_stress(elastic, c.mode, eps)
         return prony_convolution(eps / c.strain_rate, p0, g, np.asarray(tau, dtype=float))[idx]
 
 
@@ -192,33 +297,75 @@ def viscous_parts(material) -> tuple[object, np.ndarray, np.ndarray]:
     return material, np.zeros(0), np.zeros(0)
 
 
-def predict(material, curve: Curve, max_increment: float = DEFAULT_MAX_INCREMENT) -> np.ndarray:
+def driver_response(
+    material, strain: np.ndarray, strain_rate: float | None, mode: str = "uniaxial",
+    max_increment: float = DEFAULT_MAX_INCREMENT,
+) -> np.ndarray:
+    """Nominal stress [Pa] (P11, or P12 in simple shear) by the compressible 3-D driver.
+
+    :func:`tissuempm.materials.drivers.stress_strain` loads each sign of ``strain`` from the
+    reference state at the constant rate ``|strain_rate|`` (``None``: quasi-static), solving the
+    stresses that the mode leaves free to zero. A law without history variables is path
+    independent, so it is evaluated at the requested points only; a law with history
+    (``Viscoelastic``) is sub-stepped at ``max_increment``.
+
+    The lateral equilibrium is solved to :data:`DRIVER_TOL` (relative to max(G0, 1e-3 K)):
+    at the driver's default 1e-9 the Newton residual makes the cost noisy at the 1e-9 level,
+    which stalls SLSQP's finite-difference gradients (a 2-parameter local run took 5000
+    evaluations instead of 320). Where round-off prevents that tolerance (stresses far above
+    the modulus scale), the default tolerance is used instead.
+    """
+    eps = np.asarray(strain, dtype=float)
+    x = eps if mode == "simple_shear" else 1.0 + eps
+    step = max_increment if material.n_state > 0 else np.inf
+    rate = None if strain_rate is None else abs(strain_rate)
+    try:
+        result = stress_strain(material, mode, x, rate=rate, max_increment=step, tol=DRIVER_TOL)
+    except DriverError:
+        result = stress_strain(material, mode, x, rate=rate, max_increment=step)
+    return result.nominal_axial
+
+
+def predict(
+    material, curve: Curve, max_increment: float = DEFAULT_MAX_INCREMENT, forward: str = "closed_form"
+) -> np.ndarray:
     """Model nominal stress [Pa] of ``material`` at the strains of ``curve`` (its mode and rate)."""
+    if forward == "driver":
+        return driver_response(material, curve.strain, curve.strain_rate, curve.mode, max_increment)
+    _check_forward(forward)
     el, g, tau = viscous_parts(material)
     return PreparedCurve(curve, max_increment).predict(el, g, tau)
 
 
+def _check_forward(forward: str) -> None:
+    if forward not in FORWARDS:
+        raise ValueError(f"forward = {forward!r} is not valid: choose one of {', '.join(FORWARDS)}")
+
+
 def uniaxial_response(
     material, strain: np.ndarray, strain_rate: float | None, mode: str = "uniaxial",
-    max_increment: float = DEFAULT_MAX_INCREMENT,
+    max_increment: float = DEFAULT_MAX_INCREMENT, forward: str = "closed_form",
 ) -> np.ndarray:
-    """Nominal stress [Pa] at ``strain`` under constant-rate loading from zero (tension and compression
-    branches are loaded separately, each from the reference state)."""
+    """Nominal stress [Pa] at ``strain`` under constant-rate loading from zero in ``mode`` (tension and
+    compression branches are loaded separately, each from the reference state)."""
+    if forward == "driver":
+        return driver_response(material, strain, strain_rate, mode, max_increment)
+    _check_forward(forward)
     eps = np.asarray(strain, dtype=float)
     out = np.zeros_like(eps)
     el, g, tau = viscous_parts(material)
     for sel in (eps < 0, eps > 0):
         if not np.any(sel):
             continue
-        rate = None if strain_rate is None else abs(strain_rate) * np.sign(eps[sel][0])
         e = eps[sel]
-        if g.size == 0 or rate is None:
-            out[sel] = (1.0 - g.sum()) * elastic_stress(el, mode, 1.0 + e) if rate is None else elastic_stress(
-                el, mode, 1.0 + e
-            )
-            continue
-        hist, idx = loading_history(e, max_increment)
-        out[sel] = prony_convolution(hist / rate, elastic_stress(el, mode, 1.0 + hist), g, tau)[idx]
+        if g.size == 0:
+            out[sel] = elastic_stress(el, mode, e)
+        elif strain_rate is None:
+            out[sel] = (1.0 - g.sum()) * elastic_stress(el, mode, e)
+        else:
+            hist, idx = loading_history(e, max_increment)
+            rate = abs(strain_rate) * np.sign(e[0])
+            out[sel] = prony_convolution(hist / rate, elastic_stress(el, mode, hist), g, tau)[idx]
     return out
 
 

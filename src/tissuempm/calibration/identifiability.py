@@ -149,7 +149,8 @@ def bootstrap(result: FitResult, n_boot: int = 50, seed: int = 0, level: float =
             e = c.stress - s
             curves.append(replace(c, stress=s + rng.choice(e, size=e.size, replace=True)))
         problem = build_problem(result.form, curves, stability_range=None,
-                                stability_modes=result.constraints.modes)
+                                stability_modes=result.constraints.modes,
+                                max_increment=result.objective.max_increment, forward=result.objective.forward)
         problem.constraints = result.constraints
         x, f = problem.local(x_opt, SearchSettings())
         if not result.constraints.check(result.form.theta(x)):

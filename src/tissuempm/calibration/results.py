@@ -72,8 +72,8 @@ def plot_fit(result: FitResult, path: Path) -> None:
         col = f"C{k % 10}"
         ax.plot(c.strain, c.stress, "o", color=col, ms=4, label=f"{c.name} data")
         ax.plot(c.strain, s, "-", color=col, label=f"model (O = {result.costs[k]:.3g})")
-    ax.set_xlabel("engineering strain [-]")
-    ax.set_ylabel("nominal stress [Pa]")
+    ax.set_xlabel("engineering strain (simple shear: gamma) [-]")
+    ax.set_ylabel("nominal stress (simple shear: tau) [Pa]")
     ax.set_title(f"{result.form.describe()}: O = {result.cost:.4g}")
     ax.legend(fontsize=6, ncol=2)
     fig.tight_layout()
@@ -81,12 +81,15 @@ def plot_fit(result: FitResult, path: Path) -> None:
     plt.close(fig)
 
 
-def plot_rates(material: Material, rates: list[float | None], path: Path, strain: float = 0.3) -> None:
-    """Model nominal stress over -strain..+strain at several strain rates (uniaxial)."""
+def plot_rates(
+    material: Material, rates: list[float | None], path: Path, strain: float = 0.3, forward: str = "closed_form"
+) -> None:
+    """Model nominal stress over -strain..+strain at several strain rates (uniaxial), by the fit's forward model."""
     eps = np.linspace(-strain, strain, 121)
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
     for r in rates:
-        ax.plot(eps, uniaxial_response(material, eps, r), label="quasi-static" if r is None else f"{abs(r):g} /s")
+        ax.plot(eps, uniaxial_response(material, eps, r, forward=forward),
+                label="quasi-static" if r is None else f"{abs(r):g} /s")
     ax.axhline(0, color="k", lw=0.5)
     ax.set_xlabel("engineering strain [-]")
     ax.set_ylabel("nominal stress [Pa]")
@@ -151,7 +154,7 @@ def write_results(
         plot_fit(result, out / "fit.png")
         files["fit_plot"] = str(out / "fit.png")
         rates = plot_rates_list or sorted({abs(c.strain_rate) for c in result.curves if c.strain_rate}) or [None]
-        plot_rates(result.material, list(rates), out / "rates.png")
+        plot_rates(result.material, list(rates), out / "rates.png", forward=result.objective.forward)
         files["rates_plot"] = str(out / "rates.png")
         profiles = result.statistics.get("profiles")
         if profiles:

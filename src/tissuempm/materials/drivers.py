@@ -315,6 +315,7 @@ def stress_strain(
     fiber=(1.0, 0.0, 0.0),
     precision: str = "float64",
     max_increment: float = 0.005,
+    tol: float = 1.0e-9,
 ) -> DriverResult:
     """Monotonic loading from the reference state to each requested stretch at a constant rate.
 
@@ -329,6 +330,8 @@ def stress_strain(
     ----------
     rate
         Engineering strain rate |d lam / dt| [1/s]; ``None`` for quasi-static.
+    tol
+        Convergence tolerance of the zero stresses, passed to :func:`drive`.
     """
     lam = np.asarray(stretch, dtype=float).ravel()
     if rate is not None and not (np.isfinite(rate) and rate != 0.0):
@@ -353,7 +356,7 @@ def stress_strain(
                 time = QUASI_STATIC_DT * np.arange(1, path.size + 1)
             else:
                 time = np.abs(path - ref) / abs(rate)
-        pieces.append(drive(material, mode, path, time, fiber=fiber, precision=precision))
+        pieces.append(drive(material, mode, path, time, fiber=fiber, precision=precision, tol=tol))
         for i, v in enumerate(path):
             results.setdefault(float(v), (len(pieces) - 1, i))
     idx = [results[float(v)] for v in lam]
