@@ -88,8 +88,10 @@ def _helpers(t: WarpTypes, shape: str) -> SimpleNamespace:
     def stencil(
         xp: vec3, p: int, size: wp.array(dtype=vec3), F: wp.array(dtype=t.mat33), origin: vec3, inv_h: s, dims: wp.vec3i
     ):
-        """First stencil node (storage (i, j, k)) and per-axis weights and derivatives [1/m] of particle
-        ``p`` at ``xp`` (its domain from ``size`` and, for cpGIMP, ``F``)."""
+        """Flat index ``nb`` of the first stencil node, the flat strides ``sx``, ``sy`` of the x and y
+        axes (z stride 1: node (i, j, k) of the stencil is ``nb + i sx + j sy + k``) and the per-axis
+        weights and derivatives [1/m] of particle ``p`` at ``xp`` (its domain from ``size`` and, for
+        cpGIMP, ``F``)."""
         xi = (xp - origin) * inv_h
         l = domain(size, F, p, inv_h)
         bx, wx, dx = weights(xi[0], l[0], dims[0])
@@ -99,22 +101,18 @@ def _helpers(t: WarpTypes, shape: str) -> SimpleNamespace:
         bx = wp.clamp(bx, -G, dims[0] + G + 1 - NP) + G
         by = wp.clamp(by, -G, dims[1] + G + 1 - NP) + G
         bz = wp.clamp(bz, -G, dims[2] + G + 1 - NP) + G
-        return wp.vec3i(bx, by, bz), wx, wy, wz, dx * inv_h, dy * inv_h, dz * inv_h
+        sy = dims[2] + 1 + 2 * G
+        sx = (dims[1] + 1 + 2 * G) * sy
+        return bx * sx + by * sy + bz, sx, sy, wx, wy, wz, dx * inv_h, dy * inv_h, dz * inv_h
 
-    @wp.func
-    def strides(dims: wp.vec3i):
-        """Flat-index strides (x, y) of the node storage (z stride 1)."""
-        nz = dims[2] + 1 + 2 * G
-        return (dims[1] + 1 + 2 * G) * nz, nz
-
-    return SimpleNamespace(stencil=stencil, strides=strides, NP=NP)
+    return SimpleNamespace(stencil=stencil, NP=NP)
 
 
 @functools.cache
 def _bounds(t: WarpTypes, shape: str) -> Any:
     s, vec3, mat33 = t.scalar, t.vec3, t.mat33
     h = _helpers(t, shape)
-    stencil, strides, NP = h.stencil, h.strides, h.NP
+    stencil, NP = h.stencil, h.NP
 
     @wp.kernel(module="unique")
     def bounds(
@@ -131,9 +129,7 @@ def _bounds(t: WarpTypes, shape: str) -> Any:
     ):
         """Range of flat node indices touched by the chunk (its scatter window)."""
         p = begin + wp.tid()
-        b, wx, wy, wz, dx, dy, dz = stencil(x[p], p, size, F, origin, inv_h, dims)
-        sx, sy = strides(dims)
-        nb = b[0] * sx + b[1] * sy + b[2]
+        nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(x[p], p, size, F, origin, inv_h, dims)
         wp.atomic_min(lo, c, nb)
         wp.atomic_max(hi, c, nb + (NP - 1) * (sx + sy + 1))
 
@@ -171,7 +167,7 @@ def _zero(t: WarpTypes, flags: int) -> Any:
 def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
     s, vec3, mat33 = t.scalar, t.vec3, t.mat33
     h = _helpers(t, shape)
-    stencil, strides, NP = h.stencil, h.strides, h.NP
+    stencil, NP = h.stencil, h.NP
 
     @wp.kernel(module="unique")
     def p2g(
@@ -201,9 +197,7 @@ def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
         f_i = -sum V_p sigma_p grad S + sum S m_p b_p; constraint mass/momentum of rigid and fixed particles."""
         p = begin + wp.tid()
         mat = material[p]
-        b, wx, wy, wz, dx, dy, dz = stencil(x[p], p, size, F, origin, inv_h, dims)
-        sx, sy = strides(dims)
-        nb = b[0] * sx + b[1] * sy + b[2]
+        nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(x[p], p, size, F, origin, inv_h, dims)
         m = mass[p]
         if mat_rigid[mat] != 0:
             if wp.static(flags & MASS):
@@ -373,7 +367,7 @@ def _grid(t: WarpTypes, flags: int, mode: int) -> Any:
 def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
     s, vec3, mat33 = t.scalar, t.vec3, t.mat33
     h = _helpers(t, shape)
-    stencil, strides, NP = h.stencil, h.strides, h.NP
+    stencil, NP = h.stencil, h.NP
 
     @wp.kernel(module="unique")
     def g2p(
@@ -417,9 +411,7 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
         xp = x[p]
         rigid = mat_rigid[mat] != 0
         if wp.static(flags & (MOVE | GRADIENT)):
-            b, wx, wy, wz, dx, dy, dz = stencil(xp, p, size, F, origin, inv_h, dims)
-            sx, sy = strides(dims)
-            nb = b[0] * sx + b[1] * sy + b[2]
+            nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(xp, p, size, F, origin, inv_h, dims)
             vpic = vec3()
             dv = vec3()
             Lp = mat33()
@@ -502,7 +494,7 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
 def _reaction(t: WarpTypes, shape: str) -> Any:
     s, vec3, mat33 = t.scalar, t.vec3, t.mat33
     h = _helpers(t, shape)
-    stencil, strides, NP = h.stencil, h.strides, h.NP
+    stencil, NP = h.stencil, h.NP
 
     @wp.kernel(module="unique")
     def reaction(
@@ -527,9 +519,7 @@ def _reaction(t: WarpTypes, shape: str) -> Any:
         p = begin + wp.tid()
         if mat_rigid[material[p]] == 0 and fixed[p] == 0:
             return
-        b, wx, wy, wz, dx, dy, dz = stencil(x[p], p, size, F, origin, inv_h, dims)
-        sx, sy = strides(dims)
-        nb = b[0] * sx + b[1] * sy + b[2]
+        nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(x[p], p, size, F, origin, inv_h, dims)
         m = mass[p]
         rs = vec3()
         for i in range(NP):
