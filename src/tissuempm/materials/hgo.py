@@ -135,9 +135,9 @@ class HGO(UncoupledHyperelastic):
         @wp.func
         def fiber(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s)):
             J = wp.determinant(F)
-            Bb = k.isochoric_b(F)
+            Bb, r = k.isochoric_b_root(F, J)
             I1 = wp.trace(Bb)
-            ab = wp.pow(J, s(-1.0) / s(3.0)) * (F * a0)
+            ab = r * (F * a0)
             kappa = prm[o + 3]
             E = kappa * (I1 - s(3.0)) + (s(1.0) - s(3.0) * kappa) * (wp.dot(ab, ab) - s(1.0))
             E = wp.max(E, s(0.0))

@@ -162,11 +162,11 @@ class InvariantHyperelastic(UncoupledHyperelastic):
             dt: s,
         ):
             J = wp.determinant(F)
-            Bb = k.isochoric_b(F)
+            Bb, r = k.isochoric_b_root(F, J)
             I1, I2 = k.invariants12(Bb)
             W1, W2 = dW(I1, I2, prm, o_law)
             U1 = k.volumetric_dUdJ(J, prm[o_form], prm[o_form + 1])
             copy(s_in, s_out, p, 0, s_in.shape[1])
-            return k.invariant_cauchy(F, W1, W2) + U1 * wp.identity(n=3, dtype=s)
+            return k.invariant_cauchy(J, Bb, W1, W2) + U1 * wp.identity(n=3, dtype=s)
 
         return stress

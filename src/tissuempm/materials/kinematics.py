@@ -25,10 +25,10 @@ def kinematics(t: WarpTypes) -> SimpleNamespace:
         return A - (wp.trace(A) / s(3.0)) * wp.identity(n=3, dtype=s)
 
     @wp.func
-    def isochoric_b(F: t.mat33):
-        """Isochoric left Cauchy-Green tensor Bb = J^(-2/3) F F^T."""
-        J = wp.determinant(F)
-        return wp.pow(J, s(-2.0) / s(3.0)) * (F * wp.transpose(F))
+    def isochoric_b_root(F: t.mat33, J: t.scalar):
+        """(Bb, J^(-1/3)) with Bb = J^(-2/3) F F^T, from a given J = det F (one power for both)."""
+        r = wp.pow(J, s(-1.0) / s(3.0))
+        return (r * r) * (F * wp.transpose(F)), r
 
     @wp.func
     def invariants12(Bb: t.mat33):
@@ -38,10 +38,9 @@ def kinematics(t: WarpTypes) -> SimpleNamespace:
         return I1, I2
 
     @wp.func
-    def invariant_cauchy(F: t.mat33, W1: t.scalar, W2: t.scalar):
-        """Isochoric Cauchy stress of W(I1b, I2b): (2/J) dev[(W1 + I1b W2) Bb - W2 Bb^2]."""
-        J = wp.determinant(F)
-        Bb = isochoric_b(F)
+    def invariant_cauchy(J: t.scalar, Bb: t.mat33, W1: t.scalar, W2: t.scalar):
+        """Isochoric Cauchy stress of W(I1b, I2b): (2/J) dev[(W1 + I1b W2) Bb - W2 Bb^2]
+        (J = det F, Bb its isochoric left Cauchy-Green tensor)."""
         I1 = wp.trace(Bb)
         A = (W1 + I1 * W2) * Bb - W2 * (Bb * Bb)
         return (s(2.0) / J) * dev(A)
@@ -56,7 +55,7 @@ def kinematics(t: WarpTypes) -> SimpleNamespace:
 
     return SimpleNamespace(
         dev=dev,
-        isochoric_b=isochoric_b,
+        isochoric_b_root=isochoric_b_root,
         invariants12=invariants12,
         invariant_cauchy=invariant_cauchy,
         volumetric_dUdJ=volumetric_dUdJ,

@@ -296,8 +296,9 @@ class Weiss(Material):
         @wp.func
         def parts(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s)):
             J = wp.determinant(F)
+            Bb, r = k.isochoric_b_root(F, J)
             eye = wp.identity(n=3, dtype=s)
-            sig_m = k.invariant_cauchy(F, prm[O_C1], prm[O_C2])
+            sig_m = k.invariant_cauchy(J, Bb, prm[O_C1], prm[O_C2])
             sig_v = k.volumetric_dUdJ(J, prm[O_FORM], prm[O_K]) * eye
             x = F * wp.normalize(a0)
             lam = wp.length(x)
@@ -305,7 +306,7 @@ class Weiss(Material):
             aa = wp.outer(a, a)
             sig_f = aa
             if prm[O_KIN] < s(0.5):
-                T, dT = fiber(lam * wp.pow(J, s(-1.0) / s(3.0)), prm)
+                T, dT = fiber(lam * r, prm)
                 sig_f = (T / J) * k.dev(aa)
             else:
                 T, dT = fiber(lam, prm)
@@ -364,13 +365,13 @@ class Weiss(Material):
         @wp.func
         def moduli(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s), s_in: wp.array2d(dtype=s), p: int):
             J = wp.determinant(F)
-            Bb = k.isochoric_b(F)
+            Bb, r = k.isochoric_b_root(F, J)
             I1, I2 = k.invariants12(Bb)
             Bd = k.dev(Bb)
             bmax = I1 / s(3.0) + wp.sqrt(s(2.0) / s(3.0) * wp.ddot(Bd, Bd))
             lam = wp.length(F * wp.normalize(a0))
             if prm[O_KIN] < s(0.5):
-                lam = lam * wp.pow(J, s(-1.0) / s(3.0))
+                lam = lam * r
             T, dT = fiber(lam, prm)
             G = s(2.0) * (prm[O_C1] + prm[O_C2] * I1) * bmax / J
             G = G + s(0.75) * (lam * dT + s(2.0) * T) / J

@@ -4,7 +4,9 @@ Built per (precision, shape function) by :func:`transfer_kernels` and per
 (material law, precision) by :func:`material_kernels`. Every particle kernel works
 on the particle range ``[begin, begin + dim)`` (one chunk) and scatters into row
 ``c`` of the chunk grid buffers (its per-chunk scalars live at slot ``c * SLOT``); on
-CUDA there is one chunk and the adds are atomic.
+CUDA there is one chunk and the adds are atomic. The chunk buffers are zero between
+steps: a scatter writes inside its chunk's window only, and the grid pass that reduces
+a field zeroes the entries it read.
 
 Grid storage: node ``(i, j, k)`` (``i = -GHOST .. nx + GHOST``) is stored at the flat
 index ``((i + GHOST) * NY + j + GHOST) * NZ + k + GHOST`` with ``NY = ny + 1 + 2 GHOST``
@@ -46,7 +48,8 @@ SHARED = wp.constant(8)
 """Gather with MOVE and GRADIENT: the gradient velocity is ``v_new`` (USL), read once."""
 REPROJECT = wp.constant(16)
 """Gather with MOVE: scatter the new particle momentum m_p v_p at the old position into the
-chunk's momentum buffer in the same pass (MUSL re-projection; the window was zeroed before)."""
+chunk's momentum buffer in the same pass (MUSL re-projection; the grid pass before left the
+buffer zeroed, and the stencils are those of this step's P2G, inside the chunk's window)."""
 SLOT = 16
 """Elements between two chunks' entries of the per-chunk arrays (window bounds, first bad
 particle, signal speed): chunks update them from parallel threads, one cache line each."""
@@ -61,12 +64,10 @@ BC_VELOCITY = wp.constant(3)
 def transfer_kernels(t: WarpTypes, shape: str) -> SimpleNamespace:
     """Particle-grid transfer and grid kernels for types ``t`` and ``shape``.
 
-    ``zero``, ``p2g``, ``grid`` and ``g2p`` are functions of the flags (and mode) returning
+    ``p2g``, ``grid`` and ``g2p`` are functions of the flags (and mode) returning
     kernels specialised at compile time (``wp.static``), so no flag is tested per node.
     """
     return SimpleNamespace(
-        bounds=_bounds(t, shape),
-        zero=lambda flags: _zero(t, flags),
         p2g=lambda flags: _p2g(t, shape, flags),
         grid=lambda flags, mode: _grid(t, flags, mode),
         g2p=lambda flags: _g2p(t, shape, flags),
@@ -109,61 +110,6 @@ def _helpers(t: WarpTypes, shape: str) -> SimpleNamespace:
 
 
 @functools.cache
-def _bounds(t: WarpTypes, shape: str) -> Any:
-    s, vec3, mat33 = t.scalar, t.vec3, t.mat33
-    h = _helpers(t, shape)
-    stencil, NP = h.stencil, h.NP
-
-    @wp.kernel(module="unique")
-    def bounds(
-        x: wp.array(dtype=vec3),
-        size: wp.array(dtype=vec3),
-        F: wp.array(dtype=mat33),
-        origin: vec3,
-        inv_h: s,
-        dims: wp.vec3i,
-        begin: int,
-        c: int,
-        lo: wp.array(dtype=int),
-        hi: wp.array(dtype=int),
-    ):
-        """Range of flat node indices touched by the chunk (its scatter window)."""
-        p = begin + wp.tid()
-        nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(x[p], p, size, F, origin, inv_h, dims)
-        wp.atomic_min(lo, c, nb)
-        wp.atomic_max(hi, c, nb + (NP - 1) * (sx + sy + 1))
-
-    return bounds
-
-
-@functools.cache
-def _zero(t: WarpTypes, flags: int) -> Any:
-    s, vec3 = t.scalar, t.vec3
-
-    @wp.kernel(module="unique")
-    def zero(
-        start: int,
-        b_m: wp.array(dtype=s),
-        b_mom: wp.array(dtype=vec3),
-        b_f: wp.array(dtype=vec3),
-        b_cm: wp.array(dtype=s),
-        b_cmom: wp.array(dtype=vec3),
-    ):
-        """Clear the fields ``flags`` of one chunk buffer on nodes ``start + tid``."""
-        n = start + wp.tid()
-        if wp.static(flags & MASS):
-            b_m[n] = s(0.0)
-            b_cm[n] = s(0.0)
-            b_cmom[n] = vec3()
-        if wp.static(flags & MOMENTUM):
-            b_mom[n] = vec3()
-        if wp.static(flags & FORCE):
-            b_f[n] = vec3()
-
-    return zero
-
-
-@functools.cache
 def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
     s, vec3, mat33 = t.scalar, t.vec3, t.mat33
     h = _helpers(t, shape)
@@ -187,6 +133,10 @@ def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
         inv_h: s,
         dims: wp.vec3i,
         begin: int,
+        c: int,
+        window: int,
+        lo: wp.array(dtype=int),
+        hi: wp.array(dtype=int),
         b_m: wp.array(dtype=s),
         b_mom: wp.array(dtype=vec3),
         b_f: wp.array(dtype=vec3),
@@ -194,10 +144,19 @@ def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
         b_cmom: wp.array(dtype=vec3),
     ):
         """Particle to grid: m_i = sum S m_p, (mv)_i = sum S m_p v_p,
-        f_i = -sum V_p sigma_p grad S + sum S m_p b_p; constraint mass/momentum of rigid and fixed particles."""
+        f_i = -sum V_p sigma_p grad S + sum S m_p b_p; constraint mass/momentum of rigid and fixed particles.
+
+        With MASS and ``window`` != 0 (CPU chunks) the chunk's scatter window ``[lo[c], hi[c]]``
+        (flat node indices, for the grid reduction) grows to hold the stencil, ``nb`` to
+        ``nb + (NP - 1)(sx + sy + 1)``.
+        """
         p = begin + wp.tid()
         mat = material[p]
         nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(x[p], p, size, F, origin, inv_h, dims)
+        if wp.static(flags & MASS):
+            if window != 0:
+                wp.atomic_min(lo, c, nb)
+                wp.atomic_max(hi, c, nb + (NP - 1) * (sx + sy + 1))
         m = mass[p]
         if mat_rigid[mat] != 0:
             if wp.static(flags & MASS):
@@ -286,7 +245,6 @@ def _grid(t: WarpTypes, flags: int, mode: int) -> Any:
         b_cmom: wp.array2d(dtype=vec3),
         g_m: wp.array(dtype=s),
         g_mom: wp.array(dtype=vec3),
-        g_f: wp.array(dtype=vec3),
         g_cm: wp.array(dtype=s),
         g_cmom: wp.array(dtype=vec3),
         v_a: wp.array(dtype=vec3),
@@ -297,68 +255,90 @@ def _grid(t: WarpTypes, flags: int, mode: int) -> Any:
         damping: s,
         min_mass: s,
         dims: wp.vec3i,
+        n_bc: int,
         bc_kind: wp.array(dtype=wp.int32),
         bc_vel: wp.array(dtype=vec3),
     ):
-        """Reduce the chunk buffers in chunk order (fields ``flags``), then solve the node.
+        """Reduce the chunk buffers in chunk order (fields ``flags``) and zero what was read (so
+        the buffers are clean for the next scatter without a clearing pass), then solve the node.
+
+        Mass and constraint fields are kept (``g_m``, ``g_cm``, ``g_cmom``) for a later pass without
+        MASS; the momentum is kept by VELOCITY passes (USF's UPDATE pass reduces the force only).
 
         mode VELOCITY: v_a = constrained velocity (constraints and BCs applied).
         mode UPDATE:   v_a = mom/m (unconstrained, for the FLIP increment),
                        v_b = v_a + dt (f/m + g - damping v_a), then constraints and BCs,
                        react = force on the constraint (rigid/fixed) from the rest of the model:
                        R = f + m g - damping m v_a - m (v_c - v_a)/dt.
+        ``n_bc`` = number of faces with a condition (0: the node's indices are not needed).
         """
         n = start + wp.tid()
+        m = s(0.0)
+        cm = s(0.0)
+        cmom = vec3()
         if wp.static(flags & MASS):
-            sm = s(0.0)
-            scm = s(0.0)
-            scmom = vec3()
             for c in range(n_chunks):
                 if n >= lo[c * SLOT] and n <= hi[c * SLOT]:
-                    sm += b_m[c, n]
-                    scm += b_cm[c, n]
-                    scmom += b_cmom[c, n]
-            g_m[n] = sm
-            g_cm[n] = scm
-            g_cmom[n] = scmom
-        if wp.static(flags & MOMENTUM):
-            smom = vec3()
-            for c in range(n_chunks):
-                if n >= lo[c * SLOT] and n <= hi[c * SLOT]:
-                    smom += b_mom[c, n]
-            g_mom[n] = smom
-        if wp.static(flags & FORCE):
-            sf = vec3()
-            for c in range(n_chunks):
-                if n >= lo[c * SLOT] and n <= hi[c * SLOT]:
-                    sf += b_f[c, n]
-            g_f[n] = sf
-        NZ = dims[2] + 1 + 2 * G
-        NY = dims[1] + 1 + 2 * G
-        ijk = wp.vec3i(n // (NY * NZ) - G, (n // NZ) % NY - G, n % NZ - G)
-        m = g_m[n]
-        vo = vec3()
-        if m > min_mass:
-            vo = g_mom[n] / m
-        cm = g_cm[n]
-        if wp.static(mode == VELOCITY):
-            vv = vo
-            if cm > s(0.0):
-                vv = g_cmom[n] / cm
-            v_a[n] = apply_bc(vv, ijk, dims, bc_kind, bc_vel)
+                    m += b_m[c, n]
+                    cm += b_cm[c, n]
+                    cmom += b_cmom[c, n]
+                    b_m[c, n] = s(0.0)
+                    b_cm[c, n] = s(0.0)
+                    b_cmom[c, n] = vec3()
+            g_m[n] = m
+            g_cm[n] = cm
+            g_cmom[n] = cmom
         else:
-            vn = vo
+            m = g_m[n]
+            cm = g_cm[n]
+            cmom = g_cmom[n]
+        mom = vec3()
+        if wp.static(flags & MOMENTUM):
+            for c in range(n_chunks):
+                if n >= lo[c * SLOT] and n <= hi[c * SLOT]:
+                    mom += b_mom[c, n]
+                    b_mom[c, n] = vec3()
+            if wp.static(mode == VELOCITY):
+                g_mom[n] = mom
+        else:
+            mom = g_mom[n]
+        f = vec3()
+        if wp.static(flags & FORCE):
+            for c in range(n_chunks):
+                if n >= lo[c * SLOT] and n <= hi[c * SLOT]:
+                    f += b_f[c, n]
+                    b_f[c, n] = vec3()
+        ijk = wp.vec3i()
+        if n_bc > 0:
+            NZ = dims[2] + 1 + 2 * G
+            NY = dims[1] + 1 + 2 * G
+            ijk = wp.vec3i(n // (NY * NZ) - G, (n // NZ) % NY - G, n % NZ - G)
+        vo = vec3()
+        inv_m = s(0.0)
+        if m > min_mass:
+            inv_m = s(1.0) / m
+            vo = inv_m * mom
+        vv = vo
+        if wp.static(mode == VELOCITY):
+            if cm > s(0.0):
+                vv = cmom / cm
+        else:
             r = vec3()
             if m > min_mass:
-                vn = vo + dt * (g_f[n] / m + gravity - damping * vo)
+                vv = vo + dt * (inv_m * f + gravity - damping * vo)
             if cm > s(0.0):
-                vc = g_cmom[n] / cm
+                vc = cmom / cm
                 if m > min_mass:
-                    r = g_f[n] + m * gravity - (damping * m) * vo - (m / dt) * (vc - vo)
-                vn = vc
+                    r = f + m * gravity - (damping * m) * vo - (m / dt) * (vc - vo)
+                vv = vc
             v_a[n] = vo
-            v_b[n] = apply_bc(vn, ijk, dims, bc_kind, bc_vel)
             react[n] = r
+        if n_bc > 0:
+            vv = apply_bc(vv, ijk, dims, bc_kind, bc_vel)
+        if wp.static(mode == VELOCITY):
+            v_a[n] = vv
+        else:
+            v_b[n] = vv
 
     return grid
 
@@ -566,6 +546,13 @@ def material_kernels(cls: type, t: WarpTypes) -> SimpleNamespace:
     stress_fn = cls.stress_function(t.precision)
     moduli_fn = cls.moduli_function(t.precision)
 
+    @wp.func
+    def signal_speed(Fp: mat33, a0: vec3, prm: wp.array(dtype=s), hist: wp.array2d(dtype=s), p: int, vp: vec3):
+        """c + |v| with c = sqrt((K + 4G/3) / rho), rho = rho0 / J (Ionescu et al. 2006 eq. 9)."""
+        K, Gm = moduli_fn(Fp, a0, prm, hist, p)
+        c2 = (K + s(4.0) / s(3.0) * Gm) * wp.determinant(Fp) / prm[0]
+        return wp.sqrt(wp.max(c2, s(0.0))) + wp.length(vp)
+
     @wp.kernel(module="unique")
     def stress(
         mat_id: int,
@@ -579,23 +566,28 @@ def material_kernels(cls: type, t: WarpTypes) -> SimpleNamespace:
         sigma: wp.array(dtype=mat33),
         vol0: wp.array(dtype=s),
         work: wp.array(dtype=s),
+        v: wp.array(dtype=vec3),
         dt: s,
         begin: int,
         c: int,
         bad: wp.array(dtype=int),
+        speed: wp.array(dtype=s),
     ):
-        """sigma_p = law(F, L, a0, history); internal work += V (sigma_old + sigma_new)/2 : D dt."""
+        """sigma_p = law(F, L, a0, history); internal work += V (sigma_old + sigma_new)/2 : D dt;
+        the signal speed of the new state (the next step's CFL bound when v is already the new one)."""
         p = begin + wp.tid()
         if material[p] != mat_id:
             return
         Fp = F[p]
         Lp = L[p]
-        sig = stress_fn(Fp, Lp, fiber[p], prm, s_in, s_out, p, dt)
+        a0 = fiber[p]
+        sig = stress_fn(Fp, Lp, a0, prm, s_in, s_out, p, dt)
         D = s(0.5) * (Lp + wp.transpose(Lp))
         work[p] = work[p] + s(0.5) * wp.ddot(sigma[p] + sig, D) * vol0[p] * wp.determinant(Fp) * dt
         sigma[p] = sig
         if not wp.isfinite(wp.ddot(sig, sig)):
             wp.atomic_min(bad, c, p)
+        wp.atomic_max(speed, c, signal_speed(Fp, a0, prm, s_out, p, v[p]))
 
     @wp.kernel(module="unique")
     def speed(
@@ -610,14 +602,10 @@ def material_kernels(cls: type, t: WarpTypes) -> SimpleNamespace:
         c: int,
         out: wp.array(dtype=s),
     ):
-        """Signal speed c + |v| with c = sqrt((K + 4G/3) / rho), rho = rho0 / J (Ionescu et al. 2006 eq. 9)."""
+        """Signal speed c + |v| of the law's particles (see ``signal_speed``)."""
         p = begin + wp.tid()
         if material[p] != mat_id:
             return
-        Fp = F[p]
-        K, Gm = moduli_fn(Fp, fiber[p], prm, s_in, p)
-        J = wp.determinant(Fp)
-        c2 = (K + s(4.0) / s(3.0) * Gm) * J / prm[0]
-        wp.atomic_max(out, c, wp.sqrt(wp.max(c2, s(0.0))) + wp.length(v[p]))
+        wp.atomic_max(out, c, signal_speed(F[p], fiber[p], prm, s_in, p, v[p]))
 
     return SimpleNamespace(stress=stress, speed=speed)

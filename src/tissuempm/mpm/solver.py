@@ -34,6 +34,7 @@ from tissuempm.materials.base import Material
 from tissuempm.mpm import kernels as K
 from tissuempm.mpm.config import Control, SolverConfig
 from tissuempm.mpm.errors import InstabilityError
+from tissuempm.mpm.launch import Launcher
 from tissuempm.mpm.model import Model, ParticleData, RigidMaterial
 from tissuempm.mpm.shape_functions import GIMP_SHAPES
 from tissuempm.mpm.state import PARTICLE_FIELDS, State, warp_array
@@ -108,14 +109,16 @@ class ExplicitSolver:
         z = lambda dt: wp.zeros(self.n_nodes, dtype=dt, device=self.device)  # noqa: E731
         s, v3 = self.t.scalar, self.t.vec3
         self.g_m, self.g_cm = z(s), z(s)
-        self.g_mom, self.g_f, self.g_cmom = z(v3), z(v3), z(v3)
+        self.g_mom, self.g_cmom = z(v3), z(v3)
         self.g_vold, self.g_vnew, self.g_vgrad, self.g_react = z(v3), z(v3), z(v3), z(v3)
         self._n_buf = 0
+        self._dirty = False  # chunk buffers hold data of an interrupted step
         self._gravity = self.t.vec3(*cfg.gravity)
         self._body: wp.array | None = None
+        self._launch = Launcher(self.device)
         self._pool = ThreadPoolExecutor(max_workers=self.threads) if self.threads > 1 else None
         self._loaded: set[int] = set()
-        for k in [self.kern.bounds, self.kern.rigid_speed, self.kern.reaction] + [k for _, _, mk, _ in self.laws for k in (mk.stress, mk.speed)]:
+        for k in [self.kern.rigid_speed, self.kern.reaction] + [k for _, _, mk, _ in self.laws for k in (mk.stress, mk.speed)]:
             self._ready(k)
 
     # ------------------------------------------------------------------------------ setup
@@ -204,20 +207,49 @@ class ExplicitSolver:
         st.hi = wp.zeros(slots, dtype=int, device=self.device)
         st.bad = wp.full(slots, st.n, dtype=int, device=self.device)
         st.speed = wp.zeros(slots, dtype=self.t.scalar, device=self.device)
+        # host views of the per-chunk arrays (read and reset every step: a view costs nothing on the CPU)
+        st.host = {k: getattr(st, k).numpy() for k in ("lo", "hi", "bad", "speed")} if self.is_cpu else None
         return st
 
     # ------------------------------------------------------------------------------ helpers
+    @staticmethod
+    def _slots(st: State, name: str) -> np.ndarray:
+        """Values of the per-chunk array ``name``: a live view on the CPU, a copy from a GPU."""
+        return st.host[name] if st.host is not None else getattr(st, name).numpy()
+
+    @staticmethod
+    def _fill(st: State, name: str, value: float) -> None:
+        """Set every slot of the per-chunk array ``name`` to ``value``."""
+        if st.host is not None:
+            st.host[name].fill(value)
+        else:
+            getattr(st, name).fill_(value)
+
     def _parallel(self, tasks: list[Callable[[], None]]) -> None:
+        """Run ``tasks`` on the pool's threads, the last one on the calling thread."""
         if self._pool is None or len(tasks) == 1:
             for f in tasks:
                 f()
             return
-        for fut in [self._pool.submit(f) for f in tasks]:
+        futures = [self._pool.submit(f) for f in tasks[:-1]]
+        tasks[-1]()
+        for fut in futures:
             fut.result()
 
-    def _launch(self, kernel: Any, dim: int, inputs: list[Any]) -> None:
-        if dim > 0:
-            wp.launch(kernel, dim=dim, inputs=inputs, device=self.device)
+    def _per_chunk(self, *phases: list[Callable[[], None]]) -> None:
+        """Run several phases' per-chunk tasks in one parallel section: chunk ``c`` runs
+        ``phases[0][c]``, ``phases[1][c]``, ... in order (phases that only touch the chunk's own
+        particles and buffers need no barrier between them)."""
+
+        def chain(fs: tuple[Callable[[], None], ...]) -> Callable[[], None]:
+            def run() -> None:
+                for f in fs:
+                    f()
+
+            return run
+
+        self._parallel([chain(fs) for fs in zip(*phases)])
+
 
     def _apply_control(self, control: Control | None) -> None:
         g = self.config.gravity if control is None or control.gravity is None else control.gravity
@@ -244,23 +276,16 @@ class ExplicitSolver:
         """CFL time step dt = cfl h / max_p(c_p + |v_p|) [s] (Ionescu et al. 2006 eqs 9-11), capped by dt_max.
 
         c_p = sqrt((K + 4G/3) / rho) from each law's instantaneous moduli, rho = rho0 / J.
+        The speeds come from the previous step's stress pass when ``state.speed_step`` says they
+        are current (USL, MUSL), else from a pass of their own.
         Raises :class:`InstabilityError` when it falls below ``dt_min_fraction`` of the first value.
         """
         st = state
-        st.speed.zero_()
-
-        def task(c: int, b: int, e: int) -> Callable[[], None]:
-            def run() -> None:
-                slot = c * K.SLOT
-                for i, _, mk, prm in self.laws:
-                    self._launch(mk.speed, e - b, [i, prm, st.F, st.fiber, st.history, st.v, st.material, b, slot, st.speed])
-                if self._has_rigid:
-                    self._launch(self.kern.rigid_speed, e - b, [st.v, st.material, self.mat_rigid, b, slot, st.speed])
-
-            return run
-
-        self._parallel([task(c, b, e) for c, (b, e) in enumerate(st.chunks)])
-        vmax = float(np.max(st.speed.numpy()))
+        if st.speed_step != st.step:
+            self._fill(st, "speed", 0)
+            self._per_chunk(self._speed_tasks(st))
+            st.speed_step = st.step
+        vmax = float(np.max(self._slots(st, "speed")))
         dt = self.config.cfl * self.h / vmax if vmax > 0 else math.inf
         if self.config.dt_max is not None:
             dt = min(dt, self.config.dt_max)
@@ -287,36 +312,46 @@ class ExplicitSolver:
         if np.any(perm != np.arange(st.n)):
             st.permute(perm)
 
-    def _window(self, st: State, c: int) -> tuple[int, int]:
-        """First node and node count of chunk ``c``'s scatter window (the whole grid on CUDA)."""
-        if not self.is_cpu:
-            return 0, self.n_nodes
-        lo, hi = int(st.lo.numpy()[c * K.SLOT]), int(st.hi.numpy()[c * K.SLOT])
-        return lo, hi - lo + 1
+    def _speed_tasks(self, st: State) -> list[Callable[[], None]]:
+        """Per chunk: signal speeds c + |v| of its particles into the chunk's ``speed`` slot."""
 
-    def _rasterize(self, st: State, flags: int) -> None:
-        """P2G of the fields ``flags`` into the chunk buffers (windows recomputed with MASS)."""
+        def task(c: int, b: int, e: int) -> Callable[[], None]:
+            def run() -> None:
+                slot = c * K.SLOT
+                for i, _, mk, prm in self.laws:
+                    self._launch(mk.speed, e - b, [i, prm, st.F, st.fiber, st.history, st.v, st.material, b, slot, st.speed], c)
+                self._rigid_speed(st, c, b, e)
+
+            return run
+
+        return [task(c, b, e) for c, (b, e) in enumerate(st.chunks)]
+
+    def _rigid_speed(self, st: State, c: int, b: int, e: int) -> None:
+        if self._has_rigid:
+            self._launch(self.kern.rigid_speed, e - b, [st.v, st.material, self.mat_rigid, b, c * K.SLOT, st.speed], c)
+
+    def _rasterize(self, st: State, flags: int) -> list[Callable[[], None]]:
+        """Per chunk: P2G of the fields ``flags`` into its (clean) buffer; with MASS the chunk's
+        window is recomputed."""
         kern = self.kern
         body = self._body if self._body is not None else st.vpic  # placeholder array when unused
         if self._body is not None and flags & K.FORCE:
             flags |= K.BODY
-        zero = self._ready(kern.zero(flags & ~K.BODY))
         p2g = self._ready(kern.p2g(flags))
         common = [self.origin, self.t.scalar(1.0 / self.h), self.dims]
+        window = int(self.is_cpu)
 
         def task(c: int, b: int, e: int) -> Callable[[], None]:
             def run() -> None:
-                rows, slot = self._rows[c], c * K.SLOT
-                if self.is_cpu and flags & K.MASS:
-                    st.lo.numpy()[slot], st.hi.numpy()[slot] = self.n_nodes, -1
-                    self._launch(kern.bounds, e - b, [st.x, st.size, st.F, *common, b, slot, st.lo, st.hi])
-                start, count = self._window(st, c)
-                self._launch(zero, count, [start, *rows])
+                slot = c * K.SLOT
+                if window and flags & K.MASS:
+                    st.host["lo"][slot], st.host["hi"][slot] = self.n_nodes, -1
                 self._launch(
                     p2g,
                     e - b,
                     [st.x, st.v, st.mass, st.volume0, st.size, st.F, st.stress, st.material, st.fixed,
-                     self.mat_rigid, self.rigid_vel, body, *common, b, *rows],
+                     self.mat_rigid, self.rigid_vel, body, *common, b, slot, window, st.lo, st.hi, *self._rows[c]],
+                    c,
                 )  # fmt: skip
 
             return run
@@ -324,12 +359,12 @@ class ExplicitSolver:
         if not self.is_cpu and flags & K.MASS:
             st.lo.zero_()
             st.hi.fill_(self.n_nodes - 1)
-        self._parallel([task(c, b, e) for c, (b, e) in enumerate(st.chunks)])
+        return [task(c, b, e) for c, (b, e) in enumerate(st.chunks)]
 
     def _solve_grid(self, st: State, flags: int, mode: int, dt: float) -> None:
         """Reduce the chunk buffers and solve the nodes of the active window (threads split the nodes)."""
         if self.is_cpu:
-            start, stop = int(st.lo.numpy()[:: K.SLOT].min()), int(st.hi.numpy()[:: K.SLOT].max()) + 1
+            start, stop = int(st.host["lo"][:: K.SLOT].min()), int(st.host["hi"][:: K.SLOT].max()) + 1
         else:
             start, stop = 0, self.n_nodes
         edges = np.linspace(start, stop, self.threads + 1).round().astype(int)
@@ -338,24 +373,24 @@ class ExplicitSolver:
         args = [
             len(st.chunks), st.lo, st.hi,
             self.b_m, self.b_mom, self.b_f, self.b_cm, self.b_cmom,
-            self.g_m, self.g_mom, self.g_f, self.g_cm, self.g_cmom,
+            self.g_m, self.g_mom, self.g_cm, self.g_cmom,
             self.g_vgrad if mode == K.VELOCITY else self.g_vold, self.g_vnew, self.g_react,
-            s(dt), self._gravity, s(self.config.damping), s(st.min_node_mass), self.dims, self.bc_kind, self.bc_vel,
+            s(dt), self._gravity, s(self.config.damping), s(st.min_node_mass), self.dims,
+            len(self._bc_face), self.bc_kind, self.bc_vel,
         ]  # fmt: skip
 
         def task(a: int, b: int) -> Callable[[], None]:
-            return lambda: self._launch(kernel, b - a, [a, *args])
+            return lambda: self._launch(kernel, b - a, [a, *args], a)
 
         self._parallel([task(int(edges[i]), int(edges[i + 1])) for i in range(self.threads) if edges[i + 1] > edges[i]])
 
-    def _gather(self, st: State, flags: int, dt: float, v_grad: wp.array) -> None:
-        """G2P of the parts ``flags`` (MOVE, GRADIENT, POSITION; MOVE | REPROJECT also scatters the
-        new momentum into the chunk buffers, zeroed first over the chunk's window)."""
+    def _gather(self, st: State, flags: int, dt: float, v_grad: wp.array) -> list[Callable[[], None]]:
+        """Per chunk: G2P of the parts ``flags`` (MOVE, GRADIENT, POSITION; MOVE | REPROJECT also
+        scatters the new momentum into the chunk's buffer)."""
         s = self.t.scalar
         if flags & K.MOVE and flags & K.GRADIENT and v_grad is self.g_vnew:
             flags |= K.SHARED
         g2p = self._ready(self.kern.g2p(flags))
-        zero = self._ready(self.kern.zero(K.MOMENTUM))
         reaction = flags & K.MOVE and st.constrained
 
         def task(c: int, b: int, e: int) -> Callable[[], None]:
@@ -366,27 +401,27 @@ class ExplicitSolver:
                         e - b,
                         [st.x, st.mass, st.size, st.F, st.material, st.fixed, self.mat_rigid, self.g_react, self.g_cm,
                          self.origin, s(1.0 / self.h), self.dims, b, st.reaction],
+                        c,
                     )  # fmt: skip
-                rows = self._rows[c]
-                if flags & K.REPROJECT:
-                    start, count = self._window(st, c)
-                    self._launch(zero, count, [start, *rows])
                 self._launch(
                     g2p,
                     e - b,
                     [st.x, st.v, st.vpic, st.F, st.L, st.size, st.material, st.fixed, self.mat_rigid,
-                     self.rigid_vel, self.g_vold, self.g_vnew, v_grad, st.mass, rows[1], self.origin,
+                     self.rigid_vel, self.g_vold, self.g_vnew, v_grad, st.mass, self._rows[c][1], self.origin,
                      s(1.0 / self.h), self.dims, self.lower, self.upper, b, c * K.SLOT, s(dt), s(self.config.flip),
                      st.bad],
+                    c,
                 )  # fmt: skip
 
             return run
 
-        self._parallel([task(c, b, e) for c, (b, e) in enumerate(st.chunks)])
+        return [task(c, b, e) for c, (b, e) in enumerate(st.chunks)]
 
-    def _constitutive(self, st: State, dt: float) -> None:
-        """Each law's stress update on its own particles; history buffers swapped."""
+    def _constitutive(self, st: State, dt: float) -> list[Callable[[], None]]:
+        """Per chunk: each law's stress update on its own particles, with their signal speeds
+        (``speed`` is zeroed here); the caller swaps the history buffers after the section."""
         s = self.t.scalar
+        self._fill(st, "speed", 0)
 
         def task(c: int, b: int, e: int) -> Callable[[], None]:
             def run() -> None:
@@ -395,16 +430,17 @@ class ExplicitSolver:
                         mk.stress,
                         e - b,
                         [i, prm, st.F, st.L, st.fiber, st.history, st.history_next, st.material, st.stress,
-                         st.volume0, st.work, s(dt), b, c * K.SLOT, st.bad],
+                         st.volume0, st.work, st.v, s(dt), b, c * K.SLOT, st.bad, st.speed],
+                        c,
                     )  # fmt: skip
+                self._rigid_speed(st, c, b, e)
 
             return run
 
-        self._parallel([task(c, b, e) for c, (b, e) in enumerate(st.chunks)])
-        st.history, st.history_next = st.history_next, st.history
+        return [task(c, b, e) for c, (b, e) in enumerate(st.chunks)]
 
     def _check(self, st: State) -> None:
-        bad = int(st.bad.numpy().min())
+        bad = int(self._slots(st, "bad").min())
         if bad >= st.n:
             return
         x = st.x.numpy()[bad].astype(float)
@@ -435,28 +471,39 @@ class ExplicitSolver:
         self._apply_control(control)
         if dt is None:
             dt = self.stable_dt(st)
-        st.bad.fill_(st.n)
+        self._fill(st, "bad", st.n)
+        st.speed_step = None  # until this step's stress pass has run
+        if self._dirty:  # a step was interrupted between a scatter and its grid pass
+            for b in (self.b_m, self.b_mom, self.b_f, self.b_cm, self.b_cmom):
+                b.zero_()
+        self._dirty = True
+        # parallel sections: particle phases of one chunk that need no other chunk's results share one
         if cfg.transfer == "usf":
-            self._rasterize(st, K.MASS | K.MOMENTUM)
+            self._per_chunk(self._rasterize(st, K.MASS | K.MOMENTUM))
             self._solve_grid(st, K.MASS | K.MOMENTUM, K.VELOCITY, dt)
-            self._gather(st, K.GRADIENT, dt, self.g_vgrad)
-            self._constitutive(st, dt)
-            self._rasterize(st, K.FORCE)
+            self._per_chunk(self._gather(st, K.GRADIENT, dt, self.g_vgrad), self._constitutive(st, dt))
+            st.history, st.history_next = st.history_next, st.history
+            self._per_chunk(self._rasterize(st, K.FORCE))
             self._solve_grid(st, K.FORCE, K.UPDATE, dt)
-            self._gather(st, K.MOVE | K.POSITION, dt, self.g_vgrad)
+            self._per_chunk(self._gather(st, K.MOVE | K.POSITION, dt, self.g_vgrad))
+            speeds_current = False  # the stress pass saw the old velocities
         else:
-            self._rasterize(st, K.MASS | K.MOMENTUM | K.FORCE)
+            self._per_chunk(self._rasterize(st, K.MASS | K.MOMENTUM | K.FORCE))
             self._solve_grid(st, K.MASS | K.MOMENTUM | K.FORCE, K.UPDATE, dt)
             if cfg.transfer == "usl":
-                self._gather(st, K.MOVE | K.GRADIENT | K.POSITION, dt, self.g_vnew)
+                last = self._gather(st, K.MOVE | K.GRADIENT | K.POSITION, dt, self.g_vnew)
             else:
-                self._gather(st, K.MOVE | K.REPROJECT, dt, self.g_vnew)
+                self._per_chunk(self._gather(st, K.MOVE | K.REPROJECT, dt, self.g_vnew))
                 self._solve_grid(st, K.MOMENTUM, K.VELOCITY, dt)
-                self._gather(st, K.GRADIENT | K.POSITION, dt, self.g_vgrad)
-            self._constitutive(st, dt)
+                last = self._gather(st, K.GRADIENT | K.POSITION, dt, self.g_vgrad)
+            self._per_chunk(last, self._constitutive(st, dt))
+            st.history, st.history_next = st.history_next, st.history
+            speeds_current = True
+        self._dirty = False
         self._check(st)
         st.time += dt
         st.step += 1
+        st.speed_step = st.step if speeds_current else None
         # sorted between steps, so arrays a caller sees (and Control arrays in storage order) stay aligned
         if cfg.sort_interval and st.step % cfg.sort_interval == 0:
             self._sort(st)
@@ -542,7 +589,7 @@ class ExplicitSolver:
         gm = self.g_m.numpy()
         if not self.is_cpu:
             return float(gm.sum())
-        return float(gm[int(st.lo.numpy()[:: K.SLOT].min()) : int(st.hi.numpy()[:: K.SLOT].max()) + 1].sum())
+        return float(gm[int(st.host["lo"][:: K.SLOT].min()) : int(st.host["hi"][:: K.SLOT].max()) + 1].sum())
 
     def close(self) -> None:
         """Shut the thread pool down."""

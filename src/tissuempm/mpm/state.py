@@ -73,6 +73,10 @@ class State:
         First stable time step [s] (reference for the dt-collapse check).
     constrained : bool
         Whether any particle is rigid or fixed (then reaction shares are gathered).
+    speed_step : int or None
+        Step count at which the per-chunk ``speed`` maxima hold the signal speeds of the current
+        particle data (the USL and MUSL stress pass computes them for the next step's CFL bound).
+        Set it to None after changing ``v``, ``F`` or ``history`` by hand between steps.
     """
 
     def __init__(self) -> None:
@@ -82,6 +86,8 @@ class State:
         self.chunks: list[tuple[int, int]] = []
         self.min_node_mass = 0.0
         self.constrained = False
+        self.speed_step: int | None = None
+        self.host: dict[str, np.ndarray] | None = None
 
     @property
     def n(self) -> int:
