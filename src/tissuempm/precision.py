@@ -34,6 +34,8 @@ class WarpTypes:
     vec3: type
     mat33: type
     numpy: type
+    vec4: type
+    """4-vectors of the grid fields: (vector, scalar) records such as (m v, m), one SIMD register."""
 
 
 def check_precision(precision: str) -> str:
@@ -49,8 +51,8 @@ def warp_types(precision: str = "float64") -> WarpTypes:
     check_precision(precision)
     init_warp()
     if precision == "float64":
-        return WarpTypes("float64", wp.float64, wp.vec3d, wp.mat33d, np.float64)
-    return WarpTypes("float32", wp.float32, wp.vec3f, wp.mat33f, np.float32)
+        return WarpTypes("float64", wp.float64, wp.vec3d, wp.mat33d, np.float64, wp.vec4d)
+    return WarpTypes("float32", wp.float32, wp.vec3f, wp.mat33f, np.float32, wp.vec4f)
 
 
 @functools.cache

@@ -160,11 +160,11 @@ def test_chunk_buffers_are_clean_between_steps():
     st = s.initial_state(small_block())
     for _ in range(3):
         s.step(st)
-        for b in (s.b_m, s.b_mom, s.b_f, s.b_cm, s.b_cmom):
+        for b in (s.b_mm, s.b_f, s.b_c):
             assert not np.any(b.numpy())
     ref = st.to_numpy()
     b = State.from_numpy(s, ref)
-    s.b_mom.fill_(1.0)  # garbage from an interrupted step
+    s.b_mm.fill_(1.0)  # garbage from an interrupted step
     s._dirty = True
     s.step(b)
     c = State.from_numpy(s, ref)

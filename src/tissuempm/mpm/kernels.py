@@ -25,9 +25,9 @@ from tissuempm.precision import WarpTypes
 
 # scatter / reduce field flags
 MASS = wp.constant(1)
-"""Scatter/reduce nodal mass and the constraint (rigid / fixed) mass and momentum."""
+"""Scatter/reduce the nodal (m v, m) records and the constraint (rigid / fixed) records."""
 MOMENTUM = wp.constant(2)
-"""Scatter/reduce nodal momentum m v."""
+"""Reduce the (m v, m) records only (after MUSL's re-projection scatter)."""
 FORCE = wp.constant(4)
 """Scatter/reduce nodal force: internal -V sigma grad S plus particle body forces."""
 BODY = wp.constant(8)
@@ -47,8 +47,8 @@ POSITION = wp.constant(4)
 SHARED = wp.constant(8)
 """Gather with MOVE and GRADIENT: the gradient velocity is ``v_new`` (USL), read once."""
 REPROJECT = wp.constant(16)
-"""Gather with MOVE: scatter the new particle momentum m_p v_p at the old position into the
-chunk's momentum buffer in the same pass (MUSL re-projection; the grid pass before left the
+"""Gather with MOVE: scatter the new particle record (m_p v_p, m_p) at the old position into the
+chunk's (m v, m) buffer in the same pass (MUSL re-projection; the grid pass before left the
 buffer zeroed, and the stencils are those of this step's P2G, inside the chunk's window)."""
 SLOT = 16
 """Elements between two chunks' entries of the per-chunk arrays (window bounds, first bad
@@ -110,10 +110,28 @@ def _helpers(t: WarpTypes, shape: str) -> SimpleNamespace:
 
 
 @functools.cache
+def _vec4_helpers(t: WarpTypes) -> SimpleNamespace:
+    s, vec3, vec4 = t.scalar, t.vec3, t.vec4
+
+    @wp.func
+    def pack(v: vec3, w: s):
+        """(v, w) as a 4-vector."""
+        return vec4(v[0], v[1], v[2], w)
+
+    @wp.func
+    def head(a: vec4):
+        """First three components."""
+        return vec3(a[0], a[1], a[2])
+
+    return SimpleNamespace(pack=pack, head=head)
+
+
+@functools.cache
 def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
-    s, vec3, mat33 = t.scalar, t.vec3, t.mat33
+    s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
     h = _helpers(t, shape)
     stencil, NP = h.stencil, h.NP
+    pack = _vec4_helpers(t).pack
 
     @wp.kernel(module="unique")
     def p2g(
@@ -137,14 +155,14 @@ def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
         window: int,
         lo: wp.array(dtype=int),
         hi: wp.array(dtype=int),
-        b_m: wp.array(dtype=s),
-        b_mom: wp.array(dtype=vec3),
-        b_f: wp.array(dtype=vec3),
-        b_cm: wp.array(dtype=s),
-        b_cmom: wp.array(dtype=vec3),
+        b_mm: wp.array(dtype=vec4),
+        b_f: wp.array(dtype=vec4),
+        b_c: wp.array(dtype=vec4),
     ):
-        """Particle to grid: m_i = sum S m_p, (mv)_i = sum S m_p v_p,
-        f_i = -sum V_p sigma_p grad S + sum S m_p b_p; constraint mass/momentum of rigid and fixed particles.
+        """Particle to grid, into 4-vector node records (one SIMD register each):
+        MASS: (m v, m)_i = sum S m_p (v_p, 1) in ``b_mm``, and the constraint record (m v_c, m)_i of
+        rigid (v_c their material's velocity) and fixed (v_c = 0) particles in ``b_c``;
+        FORCE: (f, 0)_i = -sum V_p sigma_p grad S + sum S m_p b_p in ``b_f``.
 
         With MASS and ``window`` != 0 (CPU chunks) the chunk's scatter window ``[lo[c], hi[c]]``
         (flat node indices, for the grid reduction) grows to hold the stencil, ``nb`` to
@@ -160,44 +178,45 @@ def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
         m = mass[p]
         if mat_rigid[mat] != 0:
             if wp.static(flags & MASS):
-                mvr = m * rigid_vel[mat]
+                mvr = pack(m * rigid_vel[mat], m)
                 for i in range(NP):
                     for j in range(NP):
                         for k in range(NP):
-                            n = nb + i * sx + j * sy + k
-                            w = wx[i] * wy[j] * wz[k]
-                            b_cm[n] += w * m
-                            b_cmom[n] += w * mvr
+                            b_c[nb + i * sx + j * sy + k] += (wx[i] * wy[j] * wz[k]) * mvr
             return
-        mv = m * v[p]
-        Vt = mat33()
-        bf = vec3()
+        mv = pack(m * v[p], m)
+        mc = vec4(s(0.0), s(0.0), s(0.0), m)
+        V0 = vec4()
+        V1 = vec4()
+        V2 = vec4()
+        bf = vec4()
         if wp.static(flags & FORCE):
             Vt = wp.transpose((-vol0[p] * wp.determinant(F[p])) * stress[p])  # rows: columns of -V sigma
+            V0 = pack(Vt[0], s(0.0))
+            V1 = pack(Vt[1], s(0.0))
+            V2 = pack(Vt[2], s(0.0))
         if wp.static(flags & BODY):
-            bf = m * body[p]
+            bf = pack(m * body[p], s(0.0))
         fx = fixed[p] != 0
         # tensor-product factorisation: with grad S = (dx_i wy_j wz_k, wx_i dy_j wz_k, wx_i wy_j dz_k),
         # -V sigma grad S + S m b = wz_k fa_ij + dz_k fb_ij, fa_ij and fb_ij formed once per (i, j)
         for i in range(NP):
             for j in range(NP):
                 wij = wx[i] * wy[j]
-                fa = vec3()
-                fb = vec3()
+                fa = vec4()
+                fb = vec4()
                 if wp.static(flags & FORCE):
-                    fa = (dx[i] * wy[j]) * Vt[0] + (wx[i] * dy[j]) * Vt[1]
-                    fb = wij * Vt[2]
+                    fa = (dx[i] * wy[j]) * V0 + (wx[i] * dy[j]) * V1
+                    fb = wij * V2
                 if wp.static(flags & BODY):
                     fa = fa + wij * bf
                 for k in range(NP):
                     n = nb + i * sx + j * sy + k
-                    w = wij * wz[k]
                     if wp.static(flags & MASS):
-                        b_m[n] += w * m
+                        w = wij * wz[k]
+                        b_mm[n] += w * mv
                         if fx:
-                            b_cm[n] += w * m
-                    if wp.static(flags & MOMENTUM):
-                        b_mom[n] += w * mv
+                            b_c[n] += w * mc
                     if wp.static(flags & FORCE):
                         b_f[n] += wz[k] * fa + dz[k] * fb
 
@@ -206,8 +225,10 @@ def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
 
 @functools.cache
 def _grid(t: WarpTypes, flags: int, mode: int) -> Any:
-    s, vec3 = t.scalar, t.vec3
+    s, vec3, vec4 = t.scalar, t.vec3, t.vec4
     G = GHOST
+    v4 = _vec4_helpers(t)
+    pack, head = v4.pack, v4.head
 
     @wp.func
     def apply_bc(
@@ -238,18 +259,14 @@ def _grid(t: WarpTypes, flags: int, mode: int) -> Any:
         n_chunks: int,
         lo: wp.array(dtype=int),
         hi: wp.array(dtype=int),
-        b_m: wp.array2d(dtype=s),
-        b_mom: wp.array2d(dtype=vec3),
-        b_f: wp.array2d(dtype=vec3),
-        b_cm: wp.array2d(dtype=s),
-        b_cmom: wp.array2d(dtype=vec3),
-        g_m: wp.array(dtype=s),
-        g_mom: wp.array(dtype=vec3),
-        g_cm: wp.array(dtype=s),
-        g_cmom: wp.array(dtype=vec3),
-        v_a: wp.array(dtype=vec3),
-        v_b: wp.array(dtype=vec3),
-        react: wp.array(dtype=vec3),
+        b_mm: wp.array2d(dtype=vec4),
+        b_f: wp.array2d(dtype=vec4),
+        b_c: wp.array2d(dtype=vec4),
+        g_mm: wp.array(dtype=vec4),
+        g_c: wp.array(dtype=vec4),
+        v_a: wp.array(dtype=vec4),
+        v_b: wp.array(dtype=vec4),
+        react: wp.array(dtype=vec4),
         dt: s,
         gravity: vec3,
         damping: s,
@@ -259,55 +276,49 @@ def _grid(t: WarpTypes, flags: int, mode: int) -> Any:
         bc_kind: wp.array(dtype=wp.int32),
         bc_vel: wp.array(dtype=vec3),
     ):
-        """Reduce the chunk buffers in chunk order (fields ``flags``) and zero what was read (so
-        the buffers are clean for the next scatter without a clearing pass), then solve the node.
+        """Reduce the chunk buffers in chunk order and zero what was read (so the buffers are clean
+        for the next scatter without a clearing pass), then solve the node.
 
-        Mass and constraint fields are kept (``g_m``, ``g_cm``, ``g_cmom``) for a later pass without
-        MASS; the momentum is kept by VELOCITY passes (USF's UPDATE pass reduces the force only).
+        Flags: MASS reduces the (m v, m) and constraint records, MOMENTUM the (m v, m) records only
+        (MUSL's re-projection), FORCE the force; the reduced records are kept in ``g_mm`` and ``g_c``
+        for a later pass that does not reduce them (USF's force-only UPDATE pass).
 
         mode VELOCITY: v_a = constrained velocity (constraints and BCs applied).
-        mode UPDATE:   v_a = mom/m (unconstrained, for the FLIP increment),
-                       v_b = v_a + dt (f/m + g - damping v_a), then constraints and BCs,
+        mode UPDATE:   v_b = v + dt (f/m + g - damping v) with v = mom/m, then constraints and BCs,
+                       v_a = v_b - v (the FLIP increment, formed once per node, not per particle),
                        react = force on the constraint (rigid/fixed) from the rest of the model:
-                       R = f + m g - damping m v_a - m (v_c - v_a)/dt.
+                       R = f + m g - damping m v - m (v_c - v)/dt.
         ``n_bc`` = number of faces with a condition (0: the node's indices are not needed).
         """
         n = start + wp.tid()
-        m = s(0.0)
-        cm = s(0.0)
-        cmom = vec3()
+        mm = vec4()
+        if wp.static(flags & (MASS | MOMENTUM)):
+            for c in range(n_chunks):
+                if n >= lo[c * SLOT] and n <= hi[c * SLOT]:
+                    mm += b_mm[c, n]
+                    b_mm[c, n] = vec4()
+            g_mm[n] = mm
+        else:
+            mm = g_mm[n]
+        cr = vec4()
         if wp.static(flags & MASS):
             for c in range(n_chunks):
                 if n >= lo[c * SLOT] and n <= hi[c * SLOT]:
-                    m += b_m[c, n]
-                    cm += b_cm[c, n]
-                    cmom += b_cmom[c, n]
-                    b_m[c, n] = s(0.0)
-                    b_cm[c, n] = s(0.0)
-                    b_cmom[c, n] = vec3()
-            g_m[n] = m
-            g_cm[n] = cm
-            g_cmom[n] = cmom
+                    cr += b_c[c, n]
+                    b_c[c, n] = vec4()
+            g_c[n] = cr
         else:
-            m = g_m[n]
-            cm = g_cm[n]
-            cmom = g_cmom[n]
-        mom = vec3()
-        if wp.static(flags & MOMENTUM):
-            for c in range(n_chunks):
-                if n >= lo[c * SLOT] and n <= hi[c * SLOT]:
-                    mom += b_mom[c, n]
-                    b_mom[c, n] = vec3()
-            if wp.static(mode == VELOCITY):
-                g_mom[n] = mom
-        else:
-            mom = g_mom[n]
+            cr = g_c[n]
         f = vec3()
         if wp.static(flags & FORCE):
+            f4 = vec4()
             for c in range(n_chunks):
                 if n >= lo[c * SLOT] and n <= hi[c * SLOT]:
-                    f += b_f[c, n]
-                    b_f[c, n] = vec3()
+                    f4 += b_f[c, n]
+                    b_f[c, n] = vec4()
+            f = head(f4)
+        m = mm[3]
+        cm = cr[3]
         ijk = wp.vec3i()
         if n_bc > 0:
             NZ = dims[2] + 1 + 2 * G
@@ -317,37 +328,39 @@ def _grid(t: WarpTypes, flags: int, mode: int) -> Any:
         inv_m = s(0.0)
         if m > min_mass:
             inv_m = s(1.0) / m
-            vo = inv_m * mom
+            vo = inv_m * head(mm)
         vv = vo
         if wp.static(mode == VELOCITY):
             if cm > s(0.0):
-                vv = cmom / cm
+                vv = head(cr) / cm
         else:
             r = vec3()
             if m > min_mass:
                 vv = vo + dt * (inv_m * f + gravity - damping * vo)
             if cm > s(0.0):
-                vc = cmom / cm
+                vc = head(cr) / cm
                 if m > min_mass:
                     r = f + m * gravity - (damping * m) * vo - (m / dt) * (vc - vo)
                 vv = vc
-            v_a[n] = vo
-            react[n] = r
+            react[n] = pack(r, s(0.0))
         if n_bc > 0:
             vv = apply_bc(vv, ijk, dims, bc_kind, bc_vel)
         if wp.static(mode == VELOCITY):
-            v_a[n] = vv
+            v_a[n] = pack(vv, s(0.0))
         else:
-            v_b[n] = vv
+            v_a[n] = pack(vv - vo, s(0.0))
+            v_b[n] = pack(vv, s(0.0))
 
     return grid
 
 
 @functools.cache
 def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
-    s, vec3, mat33 = t.scalar, t.vec3, t.mat33
+    s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
     h = _helpers(t, shape)
     stencil, NP = h.stencil, h.NP
+    v4 = _vec4_helpers(t)
+    pack, head = v4.pack, v4.head
 
     @wp.kernel(module="unique")
     def g2p(
@@ -361,11 +374,11 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
         fixed: wp.array(dtype=wp.int32),
         mat_rigid: wp.array(dtype=wp.int32),
         rigid_vel: wp.array(dtype=vec3),
-        v_old: wp.array(dtype=vec3),
-        v_new: wp.array(dtype=vec3),
-        v_grad: wp.array(dtype=vec3),
+        v_inc: wp.array(dtype=vec4),
+        v_new: wp.array(dtype=vec4),
+        v_grad: wp.array(dtype=vec4),
         mass: wp.array(dtype=s),
-        b_mom: wp.array(dtype=vec3),
+        b_mm: wp.array(dtype=vec4),
         origin: vec3,
         inv_h: s,
         dims: wp.vec3i,
@@ -379,12 +392,14 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
     ):
         """Grid to particle (``flags`` of MOVE, GRADIENT, POSITION; see the module constants).
 
-        MOVE:     v_p <- flip (v_p + sum S (v_i^new - v_i^old)) + (1 - flip) sum S v_i^new,
+        MOVE:     v_p <- flip (v_p + sum S (v_i^new - v_i^old)) + (1 - flip) sum S v_i^new
+                  (the increments v_i^new - v_i^old are ``v_inc``, from the grid pass),
                   v_pic = sum S v_i^new (``reaction`` gives the constrained particles' reaction share).
         GRADIENT: L_p = sum v_i (x) grad S (v_i = ``v_grad``), F <- (I + dt L) F, check J > 0.
         POSITION: x <- x + dt v_pic, check that the particle is inside the grid.
-        REPROJECT (with MOVE): b_mom_i += S m_p v_p (MUSL), so the re-projection costs no second stencil.
+        REPROJECT (with MOVE): b_mm_i += S (m_p v_p, m_p) (MUSL), so the re-projection costs no second stencil.
         Rigid particles move with their material's velocity and keep F; fixed ones stay put.
+        The nodal velocities are 4-vectors (last component 0) so the sums run in SIMD registers.
         """
         p = begin + wp.tid()
         mat = material[p]
@@ -392,28 +407,27 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
         rigid = mat_rigid[mat] != 0
         if wp.static(flags & (MOVE | GRADIENT)):
             nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(xp, p, size, F, origin, inv_h, dims)
-            vpic = vec3()
-            dv = vec3()
-            Lp = mat33()
-            c0 = vec3()
-            c1 = vec3()
-            c2 = vec3()
+            vpic4 = vec4()
+            dv4 = vec4()
+            c0 = vec4()
+            c1 = vec4()
+            c2 = vec4()
             # tensor-product factorisation: sums over k first, then weighted by the (i, j) factors
             for i in range(NP):
                 for j in range(NP):
                     wij = wx[i] * wy[j]
-                    sv = vec3()
-                    sdv = vec3()
-                    sg = vec3()
-                    sd = vec3()
+                    sv = vec4()
+                    sdv = vec4()
+                    sg = vec4()
+                    sd = vec4()
                     for k in range(NP):
                         n = nb + i * sx + j * sy + k
                         if wp.static(flags & MOVE):
                             vn = v_new[n]
                             sv += wz[k] * vn
-                            sdv += wz[k] * (vn - v_old[n])
+                            sdv += wz[k] * v_inc[n]
                         if wp.static(flags & GRADIENT):
-                            vg = vec3()
+                            vg = vec4()
                             if wp.static(flags & SHARED):
                                 vg = vn
                             else:
@@ -423,15 +437,14 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
                     if wp.static(flags & SHARED):
                         sg = sv
                     if wp.static(flags & MOVE):
-                        vpic += wij * sv
-                        dv += wij * sdv
+                        vpic4 += wij * sv
+                        dv4 += wij * sdv
                     if wp.static(flags & GRADIENT):
                         c0 += (dx[i] * wy[j]) * sg
                         c1 += (wx[i] * dy[j]) * sg
                         c2 += wij * sd
-            if wp.static(flags & GRADIENT):
-                Lp = wp.matrix_from_cols(c0, c1, c2)  # L = sum v_i (x) grad S_i
             if wp.static(flags & MOVE):
+                vpic = head(vpic4)
                 if rigid:
                     vpic = rigid_vel[mat]
                     v[p] = vpic
@@ -439,17 +452,18 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
                     vpic = vec3()
                     v[p] = vpic
                 else:
-                    vp = flip * (v[p] + dv) + (s(1.0) - flip) * vpic
+                    vp = flip * (v[p] + head(dv4)) + (s(1.0) - flip) * vpic
                     v[p] = vp
                     if wp.static(flags & REPROJECT):
-                        mv = mass[p] * vp
+                        mv = pack(mass[p] * vp, mass[p])
                         for i in range(NP):
                             for j in range(NP):
                                 wij = wx[i] * wy[j]
                                 for k in range(NP):
-                                    b_mom[nb + i * sx + j * sy + k] += (wij * wz[k]) * mv
+                                    b_mm[nb + i * sx + j * sy + k] += (wij * wz[k]) * mv
                 vpic_p[p] = vpic
             if wp.static(flags & GRADIENT):
+                Lp = wp.matrix_from_cols(head(c0), head(c1), head(c2))  # L = sum v_i (x) grad S_i
                 if rigid:
                     Lp = mat33()
                 L[p] = Lp
@@ -472,9 +486,10 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
 
 @functools.cache
 def _reaction(t: WarpTypes, shape: str) -> Any:
-    s, vec3, mat33 = t.scalar, t.vec3, t.mat33
+    s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
     h = _helpers(t, shape)
     stencil, NP = h.stencil, h.NP
+    head = _vec4_helpers(t).head
 
     @wp.kernel(module="unique")
     def reaction(
@@ -485,8 +500,8 @@ def _reaction(t: WarpTypes, shape: str) -> Any:
         material: wp.array(dtype=wp.int32),
         fixed: wp.array(dtype=wp.int32),
         mat_rigid: wp.array(dtype=wp.int32),
-        react: wp.array(dtype=vec3),
-        g_cm: wp.array(dtype=s),
+        react: wp.array(dtype=vec4),
+        g_c: wp.array(dtype=vec4),
         origin: vec3,
         inv_h: s,
         dims: wp.vec3i,
@@ -494,8 +509,8 @@ def _reaction(t: WarpTypes, shape: str) -> Any:
         preact: wp.array(dtype=vec3),
     ):
         """Reaction share of a rigid or fixed particle, sum_i S_ip m_p / m_i^c R_i (R from the grid
-        UPDATE pass, m^c the constraint mass); a separate pass, run only when the model has
-        constraints, keeps the 27-node loop out of the gather."""
+        UPDATE pass, m^c the constraint mass, the last component of ``g_c``); a separate pass, run
+        only when the model has constraints, keeps the 27-node loop out of the gather."""
         p = begin + wp.tid()
         if mat_rigid[material[p]] == 0 and fixed[p] == 0:
             return
@@ -506,9 +521,9 @@ def _reaction(t: WarpTypes, shape: str) -> Any:
             for j in range(NP):
                 for k in range(NP):
                     n = nb + i * sx + j * sy + k
-                    cm = g_cm[n]
+                    cm = g_c[n][3]
                     if cm > s(0.0):
-                        rs += (wx[i] * wy[j] * wz[k] * m / cm) * react[n]
+                        rs += (wx[i] * wy[j] * wz[k] * m / cm) * head(react[n])
         preact[p] = rs
 
     return reaction

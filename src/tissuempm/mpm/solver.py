@@ -107,10 +107,9 @@ class ExplicitSolver:
         self.bc_vel = warp_array(self._bc_velocity, "vec3", self.t, self.device)
         # global grid arrays
         z = lambda dt: wp.zeros(self.n_nodes, dtype=dt, device=self.device)  # noqa: E731
-        s, v3 = self.t.scalar, self.t.vec3
-        self.g_m, self.g_cm = z(s), z(s)
-        self.g_mom, self.g_cmom = z(v3), z(v3)
-        self.g_vold, self.g_vnew, self.g_vgrad, self.g_react = z(v3), z(v3), z(v3), z(v3)
+        v4 = self.t.vec4  # nodal records (vector, scalar): (m v, m), (v, 0), ...
+        self.g_mm, self.g_c = z(v4), z(v4)
+        self.g_vinc, self.g_vnew, self.g_vgrad, self.g_react = z(v4), z(v4), z(v4), z(v4)
         self._n_buf = 0
         self._dirty = False  # chunk buffers hold data of an interrupted step
         self._gravity = self.t.vec3(*cfg.gravity)
@@ -133,13 +132,15 @@ class ExplicitSolver:
         if n_chunks <= self._n_buf:
             return
         shape = (n_chunks, self.n_nodes)
-        s, v3 = self.t.scalar, self.t.vec3
-        z = lambda dt: wp.zeros(shape, dtype=dt, device=self.device)  # noqa: E731
-        self.b_m, self.b_cm = z(s), z(s)
-        self.b_mom, self.b_f, self.b_cmom = z(v3), z(v3), z(v3)
+        z = lambda: wp.zeros(shape, dtype=self.t.vec4, device=self.device)  # noqa: E731
+        self.b_mm, self.b_f, self.b_c = z(), z(), z()  # (m v, m), (f, 0), constraint (m v_c, m)
         self._n_buf = n_chunks
         # per-chunk 1-D row views (kernels index them with the flat node index only)
-        self._rows = [[b[c] for b in (self.b_m, self.b_mom, self.b_f, self.b_cm, self.b_cmom)] for c in range(n_chunks)]
+        self._rows = [[b[c] for b in self._buffers()] for c in range(n_chunks)]
+
+    def _buffers(self) -> tuple[wp.array, ...]:
+        """The chunk buffers: (m v, m), force and constraint records."""
+        return self.b_mm, self.b_f, self.b_c
 
     def _chunks(self, n: int) -> list[tuple[int, int]]:
         if not self.is_cpu:
@@ -372,9 +373,8 @@ class ExplicitSolver:
         kernel = self._ready(self.kern.grid(flags, mode))
         args = [
             len(st.chunks), st.lo, st.hi,
-            self.b_m, self.b_mom, self.b_f, self.b_cm, self.b_cmom,
-            self.g_m, self.g_mom, self.g_cm, self.g_cmom,
-            self.g_vgrad if mode == K.VELOCITY else self.g_vold, self.g_vnew, self.g_react,
+            self.b_mm, self.b_f, self.b_c, self.g_mm, self.g_c,
+            self.g_vgrad if mode == K.VELOCITY else self.g_vinc, self.g_vnew, self.g_react,
             s(dt), self._gravity, s(self.config.damping), s(st.min_node_mass), self.dims,
             len(self._bc_face), self.bc_kind, self.bc_vel,
         ]  # fmt: skip
@@ -399,7 +399,7 @@ class ExplicitSolver:
                     self._launch(
                         self.kern.reaction,
                         e - b,
-                        [st.x, st.mass, st.size, st.F, st.material, st.fixed, self.mat_rigid, self.g_react, self.g_cm,
+                        [st.x, st.mass, st.size, st.F, st.material, st.fixed, self.mat_rigid, self.g_react, self.g_c,
                          self.origin, s(1.0 / self.h), self.dims, b, st.reaction],
                         c,
                     )  # fmt: skip
@@ -407,7 +407,7 @@ class ExplicitSolver:
                     g2p,
                     e - b,
                     [st.x, st.v, st.vpic, st.F, st.L, st.size, st.material, st.fixed, self.mat_rigid,
-                     self.rigid_vel, self.g_vold, self.g_vnew, v_grad, st.mass, self._rows[c][1], self.origin,
+                     self.rigid_vel, self.g_vinc, self.g_vnew, v_grad, st.mass, self._rows[c][0], self.origin,
                      s(1.0 / self.h), self.dims, self.lower, self.upper, b, c * K.SLOT, s(dt), s(self.config.flip),
                      st.bad],
                     c,
@@ -474,13 +474,13 @@ class ExplicitSolver:
         self._fill(st, "bad", st.n)
         st.speed_step = None  # until this step's stress pass has run
         if self._dirty:  # a step was interrupted between a scatter and its grid pass
-            for b in (self.b_m, self.b_mom, self.b_f, self.b_cm, self.b_cmom):
+            for b in self._buffers():
                 b.zero_()
         self._dirty = True
         # parallel sections: particle phases of one chunk that need no other chunk's results share one
         if cfg.transfer == "usf":
-            self._per_chunk(self._rasterize(st, K.MASS | K.MOMENTUM))
-            self._solve_grid(st, K.MASS | K.MOMENTUM, K.VELOCITY, dt)
+            self._per_chunk(self._rasterize(st, K.MASS))
+            self._solve_grid(st, K.MASS, K.VELOCITY, dt)
             self._per_chunk(self._gather(st, K.GRADIENT, dt, self.g_vgrad), self._constitutive(st, dt))
             st.history, st.history_next = st.history_next, st.history
             self._per_chunk(self._rasterize(st, K.FORCE))
@@ -488,8 +488,8 @@ class ExplicitSolver:
             self._per_chunk(self._gather(st, K.MOVE | K.POSITION, dt, self.g_vgrad))
             speeds_current = False  # the stress pass saw the old velocities
         else:
-            self._per_chunk(self._rasterize(st, K.MASS | K.MOMENTUM | K.FORCE))
-            self._solve_grid(st, K.MASS | K.MOMENTUM | K.FORCE, K.UPDATE, dt)
+            self._per_chunk(self._rasterize(st, K.MASS | K.FORCE))
+            self._solve_grid(st, K.MASS | K.FORCE, K.UPDATE, dt)
             if cfg.transfer == "usl":
                 last = self._gather(st, K.MOVE | K.GRADIENT | K.POSITION, dt, self.g_vnew)
             else:
@@ -586,7 +586,7 @@ class ExplicitSolver:
         """Sum of the nodal masses of the last P2G (active window only; others are stale)."""
         if st.step == 0:
             return float("nan")
-        gm = self.g_m.numpy()
+        gm = self.g_mm.numpy()[:, 3]
         if not self.is_cpu:
             return float(gm.sum())
         return float(gm[int(st.host["lo"][:: K.SLOT].min()) : int(st.host["hi"][:: K.SLOT].max()) + 1].sum())
