@@ -1,16 +1,19 @@
 """Explicit MPM solver (Sulsky et al. 1994; uGIMP of Bardenhagen & Kober 2004; Ionescu et al. 2006).
 
-One step (:meth:`ExplicitSolver.step`) is a list of named phases; for MUSL::
+One step (:meth:`ExplicitSolver.step`) for MUSL, parallel sections in brackets::
 
-    sort            every ``sort_interval`` steps, particles sorted by cell
-    rasterize       P2G of mass, momentum, internal + body force (chunk buffers)
-    solve_grid      reduce the chunk buffers in chunk order; v_i^new = v_i + dt (f_i/m_i + g - alpha v_i);
-                    rigid/fixed constraints and grid-face conditions; reaction forces
-    gather(MOVE)    FLIP/PIC particle velocity
-    rasterize(MOM)  MUSL: re-project m_p v_p^new at the old positions, constrained v_i
-    gather(GRAD)    L_p = sum v_i (x) grad S_ip, F <- (I + dt L) F, x <- x + dt v_pic
-    constitutive    each law's stress kernel on its own particles; history buffers swapped
+    stable_dt       dt = cfl h / max(c_p + |v_p|): the speeds come from the previous step's
+                    stress pass (a pass of their own only on the first step or after USF steps)
+    [rasterize]     P2G of (m v, m), constraint records and internal + body force (chunk buffers;
+                    each chunk's scatter window tracked on the way)
+    [solve_grid]    reduce the chunk buffers in chunk order (zeroing them); v_i^new = v_i + dt (f_i/m_i
+                    + g - alpha v_i); rigid/fixed constraints and grid-face conditions; reaction forces
+    [gather(MOVE)]  FLIP/PIC particle velocity, re-projection of (m_p v_p^new, m_p) at the old positions
+    [solve_grid]    MUSL: constrained re-projected nodal velocity
+    [gather(GRAD)   L_p = sum v_i (x) grad S_ip, F <- (I + dt L) F, x <- x + dt v_pic,
+     constitutive]  each law's stress kernel on the chunk's particles with their signal speeds
     check           NaN, J <= 0, particle outside the grid -> InstabilityError
+    sort            every ``sort_interval`` steps, particles sorted by cell
 
 USL gathers once with the updated grid velocity; USF computes L and the stress from
 the re-projected velocity before the force scatter.
@@ -19,7 +22,10 @@ Parallelism (CPU): particles are split into contiguous chunks (of the cell-sorte
 order); each chunk scatters into a private grid buffer restricted to the window of
 nodes it touches, and the buffers are summed node by node in chunk order, so the
 result does not depend on thread scheduling. Warp CPU launches release the GIL, so
-one Python thread per chunk runs the chunks on all cores. On CUDA the same kernels
+one Python thread per chunk runs the chunks on all cores; a chunk's phases that need
+no other chunk's results (its gather and stress update) share one section, and the
+launches are replayed (:class:`~tissuempm.mpm.launch.Launcher`). Nodal fields are
+4-vector records so the 27-node sums run in SIMD registers. On CUDA the same kernels
 run with one chunk and atomic adds.
 """
 
