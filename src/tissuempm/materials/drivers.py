@@ -37,7 +37,7 @@ import numpy as np
 import warp as wp
 
 from tissuempm.materials.base import Material
-from tissuempm.precision import warp_types
+from tissuempm.precision import kernel, warp_types
 
 Mode = Literal["uniaxial", "equibiaxial", "pure_shear", "simple_shear"]
 MODES: tuple[str, ...] = ("uniaxial", "equibiaxial", "pure_shear", "simple_shear")
@@ -117,7 +117,7 @@ def _evaluation_kernel(cls: type, precision: str):
     t = warp_types(precision)
     stress = cls.stress_function(precision)
 
-    @wp.kernel(module="unique")
+    @kernel
     def evaluate(
         F: wp.array(dtype=t.mat33),
         L: wp.array(dtype=t.mat33),

@@ -21,7 +21,7 @@ import warp as wp
 
 from tissuempm.mpm.model import GHOST
 from tissuempm.mpm.shape_functions import STENCIL, axis_weights, particle_domain
-from tissuempm.precision import WarpTypes
+from tissuempm.precision import WarpTypes, kernel
 
 # scatter / reduce field flags
 MASS = wp.constant(1)
@@ -133,7 +133,7 @@ def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
     stencil, NP = h.stencil, h.NP
     pack = _vec4_helpers(t).pack
 
-    @wp.kernel(module="unique")
+    @kernel
     def p2g(
         x: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
@@ -253,7 +253,7 @@ def _grid(t: WarpTypes, flags: int, mode: int) -> Any:
                         out[a] = vels[face][a]
         return out
 
-    @wp.kernel(module="unique")
+    @kernel
     def grid(
         start: int,
         n_chunks: int,
@@ -362,7 +362,7 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
     v4 = _vec4_helpers(t)
     pack, head = v4.pack, v4.head
 
-    @wp.kernel(module="unique")
+    @kernel
     def g2p(
         x: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
@@ -491,7 +491,7 @@ def _reaction(t: WarpTypes, shape: str) -> Any:
     stencil, NP = h.stencil, h.NP
     head = _vec4_helpers(t).head
 
-    @wp.kernel(module="unique")
+    @kernel
     def reaction(
         x: wp.array(dtype=vec3),
         mass: wp.array(dtype=s),
@@ -533,7 +533,7 @@ def _reaction(t: WarpTypes, shape: str) -> Any:
 def _rigid_speed(t: WarpTypes) -> Any:
     s, vec3 = t.scalar, t.vec3
 
-    @wp.kernel(module="unique")
+    @kernel
     def rigid_speed(
         v: wp.array(dtype=vec3),
         material: wp.array(dtype=wp.int32),
@@ -568,7 +568,7 @@ def material_kernels(cls: type, t: WarpTypes) -> SimpleNamespace:
         c2 = (K + s(4.0) / s(3.0) * Gm) * wp.determinant(Fp) / prm[0]
         return wp.sqrt(wp.max(c2, s(0.0))) + wp.length(vp)
 
-    @wp.kernel(module="unique")
+    @kernel
     def stress(
         mat_id: int,
         prm: wp.array(dtype=s),
@@ -604,7 +604,7 @@ def material_kernels(cls: type, t: WarpTypes) -> SimpleNamespace:
             wp.atomic_min(bad, c, p)
         wp.atomic_max(speed, c, signal_speed(Fp, a0, prm, s_out, p, v[p]))
 
-    @wp.kernel(module="unique")
+    @kernel
     def speed(
         mat_id: int,
         prm: wp.array(dtype=s),
