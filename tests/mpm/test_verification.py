@@ -24,7 +24,7 @@ def rod(length, h, ppc, material=0):
 
 
 # ----------------------------------------------------------------------------------------- vibrating bar
-def vibrating_bar(shape="gimp", transfer="musl", periods=1.0, h=1.0, ppc=2):
+def vibrating_bar(shape="gimp", transfer="musl", periods=1.0, h=1.0, ppc=2, precision="float64"):
     """Bardenhagen (2002): L 25, E 100, rho 1, v0 0.1, fixed-free, first mode.
     Returns (t, v_cm, exact v_cm, period estimate, mass/momentum drift)."""
     L, E, rho, v0 = 25.0, 100.0, 1.0, 0.1
@@ -36,7 +36,7 @@ def vibrating_bar(shape="gimp", transfer="musl", periods=1.0, h=1.0, ppc=2):
     pd = ParticleData(x=pd.x, volume=pd.volume, size=pd.size, material=0, velocity=vel)
     model = Model(grid=grid, materials=[Uniaxial1D(E=E, density=rho)],
                   boundaries=[GridBoundary(0, "lower", "fixed"), *side_walls()])  # fmt: skip
-    s = ExplicitSolver(model, SolverConfig(shape=shape, transfer=transfer, threads=1, cfl=0.3))
+    s = ExplicitSolver(model, SolverConfig(shape=shape, transfer=transfer, threads=1, cfl=0.3, precision=precision))
     st = s.initial_state(pd)
     T = 2 * np.pi / omega
     rec = []
@@ -63,6 +63,15 @@ def test_vibrating_bar_period(shape):
     assert abs(period - T) / T < 0.01
     assert np.abs(vcm - exact).max() < 0.05 * 2 * 0.1 / np.pi
     assert lateral < 1e-12  # no spurious transverse momentum
+
+
+@pytest.mark.parametrize("transfer", ["usl", "musl"])
+def test_vibrating_bar_float32(transfer):
+    """float32 kernels (4-wide float records on the grid): the same period and amplitude criteria."""
+    t, vcm, exact, period, T, lateral = vibrating_bar(transfer=transfer, periods=1.0, precision="float32")
+    assert abs(period - T) / T < 0.01
+    assert np.abs(vcm - exact).max() < 0.05 * 2 * 0.1 / np.pi
+    assert lateral < 1e-6
 
 
 # ----------------------------------------------------------------------------------------- colliding disks
