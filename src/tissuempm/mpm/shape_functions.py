@@ -159,25 +159,27 @@ def axis_weights(t: WarpTypes, shape: str) -> Any:
     if shape in GIMP_SHAPES:
 
         @wp.func
-        def gimp_1(r: s, l: s):
+        def gimp_1(r: s, l: s, h: s):
+            """Weight and derivative at distance r [cells]; h = 1 / (2 l) (no division per node)."""
             ar = wp.abs(r)
             sg = wp.sign(r)
             if ar < l:
-                return s(1.0) - (r * r + l * l) / (s(2.0) * l), -r / l
+                return s(1.0) - (r * r + l * l) * h, s(-2.0) * r * h
             if ar < s(1.0) - l:
                 return s(1.0) - ar, -sg
             if ar < s(1.0) + l:
                 q = s(1.0) + l - ar
-                return q * q / (s(4.0) * l), -sg * q / (s(2.0) * l)
+                return s(0.5) * q * q * h, -sg * q * h
             return s(0.0), s(0.0)
 
         @wp.func
         def gimp(xi: s, l: s, n: int):
             fb = wp.floor(xi + s(0.5)) - s(1.0)
             f = xi - fb  # distance to node base, in [0.5, 1.5)
-            w0, d0 = gimp_1(f, l)
-            w1, d1 = gimp_1(f - s(1.0), l)
-            w2, d2 = gimp_1(f - s(2.0), l)
+            h = s(0.5) / l
+            w0, d0 = gimp_1(f, l, h)
+            w1, d1 = gimp_1(f - s(1.0), l, h)
+            w2, d2 = gimp_1(f - s(2.0), l, h)
             return int(fb), t.vec3(w0, w1, w2), t.vec3(d0, d1, d2)
 
         return gimp
