@@ -5,6 +5,8 @@ transfer kernels); a recorded :class:`warp.Launch` replays in about 7 us. In the
 sections of a step the launches of all chunks run under one GIL, so this Python time adds
 up across threads. :class:`Launcher` keeps one recorded launch per (kernel, slot) and
 re-packs only the arguments that changed since its last call (array identity, scalar value).
+A recorded launch keeps references to the arrays of its last call until it is called again
+with others, so at most one earlier state's arrays stay alive per solver.
 """
 
 import threading
