@@ -13,21 +13,28 @@ from __future__ import annotations
 
 import functools
 import logging
+import re
 from dataclasses import dataclass
 from typing import Any, Callable, Literal
 
 import numpy as np
 import warp as wp
 
-CPU_COMPILER_FLAGS = "-march=native -mllvm=-inline-threshold=9000 -mllvm=-inline-cold-callsite-threshold=3000"
-"""Clang flags of tissuempm's CPU kernels: Warp 1.19's defaults without its SLP recursion cap
-(``-slp-recursion-max-depth=4``). At LLVM's default depth the 4-wide nodal sums of the transfer kernels
-vectorise better: the float64 step is about 10 % faster (docs/mpm.md)."""
+def cpu_compiler_flags() -> str | None:
+    """Clang flags of tissuempm's CPU kernels: Warp's current ``wp.config.cpu_compiler_flags`` (by
+    default ``-march=native`` plus inlining thresholds) without the cap on the SLP vectoriser's recursion
+    depth (``-slp-recursion-max-depth=4`` in Warp 1.19). At LLVM's default depth the 4-wide nodal sums of
+    the transfer kernels vectorise better: the float64 step is about 10 % faster (docs/mpm.md). A user's
+    own setting is kept otherwise (``""`` still compiles for a generic CPU)."""
+    flags = wp.config.cpu_compiler_flags
+    if flags is None:
+        return None
+    return " ".join(re.sub(r"-mllvm[= ]-slp-recursion-max-depth=\d+", " ", flags).split())
 
 
 def kernel(fn: Callable[..., Any]) -> Any:
-    """``@wp.kernel`` in a module of its own, compiled with :data:`CPU_COMPILER_FLAGS` on the CPU."""
-    return wp.kernel(fn, module="unique", module_options={"cpu_compiler_flags": CPU_COMPILER_FLAGS})
+    """``@wp.kernel`` in a module of its own, compiled with :func:`cpu_compiler_flags` on the CPU."""
+    return wp.kernel(fn, module="unique", module_options={"cpu_compiler_flags": cpu_compiler_flags()})
 
 
 Precision = Literal["float64", "float32"]
