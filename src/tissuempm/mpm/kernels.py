@@ -551,6 +551,44 @@ def _rigid_speed(t: WarpTypes) -> Any:
 
 
 @functools.cache
+def cell_key_kernel(t: WarpTypes) -> Any:
+    """``cell_key(x, origin, inv_h, dims, key)``: row-major index of the cell holding each particle
+    (clamped to the grid), the sort key of :meth:`ExplicitSolver._sort`."""
+    vec3 = t.vec3
+
+    @kernel
+    def cell_key(x: wp.array(dtype=vec3), origin: wp.vec3d, inv_h: wp.float64, dims: wp.vec3i, key: wp.array(dtype=wp.int64)):
+        p = wp.tid()
+        xp = x[p]
+        c = wp.vec3i()
+        for a in range(3):
+            c[a] = wp.clamp(int((wp.float64(xp[a]) - origin[a]) * inv_h), 0, dims[a] - 1)
+        key[p] = (wp.int64(c[0]) * wp.int64(dims[1]) + wp.int64(c[1])) * wp.int64(dims[2]) + wp.int64(c[2])
+
+    return cell_key
+
+
+@functools.cache
+def gather_kernel(dtype: Any, rows: bool = False) -> Any:
+    """``gather(src, perm, dst)``: dst[k] = src[perm[k]] (``rows``: 2-D arrays, whole rows)."""
+    if rows:
+
+        @kernel
+        def gather_rows(src: wp.array2d(dtype=dtype), perm: wp.array(dtype=wp.int64), dst: wp.array2d(dtype=dtype)):
+            k, j = wp.tid()
+            dst[k, j] = src[int(perm[k]), j]
+
+        return gather_rows
+
+    @kernel
+    def gather(src: wp.array(dtype=dtype), perm: wp.array(dtype=wp.int64), dst: wp.array(dtype=dtype)):
+        k = wp.tid()
+        dst[k] = src[int(perm[k])]
+
+    return gather
+
+
+@functools.cache
 def material_kernels(cls: type, t: WarpTypes) -> SimpleNamespace:
     """Stress-update and signal-speed kernels of one law (``cls``) for types ``t``.
 

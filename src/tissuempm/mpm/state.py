@@ -166,13 +166,23 @@ class State:
         return state
 
     def permute(self, perm: np.ndarray) -> None:
-        """Reorder the particles: storage position k takes the particle now at ``perm[k]``."""
+        """Reorder the particles in place: storage position k takes the particle now at ``perm[k]``
+        (Warp gathers into a scratch array, copied back, so references to the arrays stay valid)."""
+        from tissuempm.mpm.kernels import gather_kernel
+
+        dev = self.x.device
+        p = wp.array(np.asarray(perm, dtype=np.int64), dtype=wp.int64, device=dev)
+        scratch: dict[Any, wp.array] = {}
         for name in PARTICLE_FIELDS:
             a = getattr(self, name)
-            a.assign(a.numpy()[perm])
-        h = self.history.numpy()[perm]
-        self.history.assign(h)
-        self.history_next.assign(h)
+            tmp = scratch.setdefault(a.dtype, wp.empty_like(a))
+            wp.launch(gather_kernel(a.dtype), dim=self.n, inputs=[a, p, tmp], device=dev)
+            wp.copy(a, tmp)
+        if self.history.shape[1] > 0:
+            tmp = wp.empty_like(self.history)
+            wp.launch(gather_kernel(self.history.dtype, rows=True), dim=self.history.shape, inputs=[self.history, p, tmp], device=dev)
+            wp.copy(self.history, tmp)
+            wp.copy(self.history_next, tmp)
 
 
 def warp_array(values: np.ndarray, kind: str, t: Any, device: str) -> wp.array:
