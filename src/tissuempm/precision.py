@@ -20,6 +20,7 @@ from typing import Any, Callable, Literal
 import numpy as np
 import warp as wp
 
+
 def cpu_compiler_flags() -> str | None:
     """Clang flags of tissuempm's CPU kernels: Warp's current ``wp.config.cpu_compiler_flags`` (by
     default ``-march=native`` plus inlining thresholds) without the cap on the SLP vectoriser's recursion

@@ -257,7 +257,6 @@ class ExplicitSolver:
 
         self._parallel([chain(fs) for fs in zip(*phases)])
 
-
     def _apply_control(self, control: Control | None) -> None:
         g = self.config.gravity if control is None or control.gravity is None else control.gravity
         self._gravity = self.t.vec3(*g)
@@ -424,9 +423,15 @@ class ExplicitSolver:
 
         return [task(c, b, e) for c, (b, e) in enumerate(st.chunks)]
 
+    def _gather_and_stress(self, st: State, gather: list[Callable[[], None]], dt: float) -> None:
+        """One parallel section: each chunk's ``gather`` tasks, then its stress update; the history
+        buffers are swapped after it."""
+        self._per_chunk(gather, self._constitutive(st, dt))
+        st.history, st.history_next = st.history_next, st.history
+
     def _constitutive(self, st: State, dt: float) -> list[Callable[[], None]]:
         """Per chunk: each law's stress update on its own particles, with their signal speeds
-        (``speed`` is zeroed here); the caller swaps the history buffers after the section."""
+        (``speed`` is zeroed here); :meth:`_gather_and_stress` runs them and swaps the history."""
         s = self.t.scalar
         self._fill(st, "speed", 0)
 
@@ -488,8 +493,7 @@ class ExplicitSolver:
         if cfg.transfer == "usf":
             self._per_chunk(self._rasterize(st, K.MASS))
             self._solve_grid(st, K.MASS, K.VELOCITY, dt)
-            self._per_chunk(self._gather(st, K.GRADIENT, dt, self.g_vgrad), self._constitutive(st, dt))
-            st.history, st.history_next = st.history_next, st.history
+            self._gather_and_stress(st, self._gather(st, K.GRADIENT, dt, self.g_vgrad), dt)
             self._per_chunk(self._rasterize(st, K.FORCE))
             self._solve_grid(st, K.FORCE, K.UPDATE, dt)
             self._per_chunk(self._gather(st, K.MOVE | K.POSITION, dt, self.g_vgrad))
@@ -503,8 +507,7 @@ class ExplicitSolver:
                 self._per_chunk(self._gather(st, K.MOVE | K.REPROJECT, dt, self.g_vnew))
                 self._solve_grid(st, K.MOMENTUM, K.VELOCITY, dt)
                 last = self._gather(st, K.GRADIENT | K.POSITION, dt, self.g_vgrad)
-            self._per_chunk(last, self._constitutive(st, dt))
-            st.history, st.history_next = st.history_next, st.history
+            self._gather_and_stress(st, last, dt)
             speeds_current = True
         self._dirty = False
         self._check(st)

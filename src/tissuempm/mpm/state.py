@@ -15,6 +15,7 @@ import numpy as np
 import warp as wp
 
 from tissuempm.materials.base import Material
+from tissuempm.mpm.kernels import gather_kernel
 
 if TYPE_CHECKING:  # pragma: no cover
     from tissuempm.mpm.solver import ExplicitSolver
@@ -168,14 +169,14 @@ class State:
     def permute(self, perm: np.ndarray) -> None:
         """Reorder the particles in place: storage position k takes the particle now at ``perm[k]``
         (Warp gathers into a scratch array, copied back, so references to the arrays stay valid)."""
-        from tissuempm.mpm.kernels import gather_kernel
-
         dev = self.x.device
         p = wp.array(np.asarray(perm, dtype=np.int64), dtype=wp.int64, device=dev)
         scratch: dict[Any, wp.array] = {}
         for name in PARTICLE_FIELDS:
             a = getattr(self, name)
-            tmp = scratch.setdefault(a.dtype, wp.empty_like(a))
+            tmp = scratch.get(a.dtype)
+            if tmp is None:  # one scratch array per dtype, shared by the fields of that type
+                tmp = scratch[a.dtype] = wp.empty_like(a)
             wp.launch(gather_kernel(a.dtype), dim=self.n, inputs=[a, p, tmp], device=dev)
             wp.copy(a, tmp)
         if self.history.shape[1] > 0:
