@@ -196,8 +196,19 @@ class TwoSurfaceFailure(Material):
 
     @classmethod
     def _build_moduli(cls, t: WarpTypes) -> Any:
-        # Failure only removes stiffness: the intact base's moduli are a safe bound.
-        return Weiss.moduli_function(t.precision)
+        """Failure only removes stiffness: the intact base's moduli bound a partly failed particle;
+        a completely failed one carries no stress and has no wave speed (K = G = 0), so debris
+        crushed to a small J (where the intact bound grows like 1/J) cannot collapse the time step."""
+        base = Weiss.moduli_function(t.precision)
+        s = t.scalar
+
+        @wp.func
+        def moduli(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s), s_in: wp.array2d(dtype=s), p: int):
+            if int(s_in[p, 0] + s(0.5)) == BOTH:
+                return s(0.0), s(0.0)
+            return base(F, a0, prm, s_in, p)
+
+        return moduli
 
     @classmethod
     def _build_criteria(cls, t: WarpTypes) -> Any:
@@ -233,9 +244,13 @@ class TwoSurfaceFailure(Material):
             p: int,
             dt: s,
         ):
+            old = int(s_in[p, 0] + s(0.5))
+            if old == BOTH:  # completely failed: stress-free whatever F (even J <= 0), history frozen
+                for k in range(3):
+                    s_out[p, k] = s_in[p, k]
+                return mat33()
             sig_m, sig_f, sig_v, lam = parts(F, a0, prm)
             gam, efib = criteria(F, lam, prm)
-            old = int(s_in[p, 0] + s(0.5))
             matrix = 0
             if old == MATRIX or old == BOTH or gam > prm[O_GAMMA]:
                 matrix = 1

@@ -3,18 +3,22 @@
 Public surface::
 
     from tissuempm.mpm import (SolverConfig, Control, Grid, GridBoundary, ParticleData,
-                               RigidMaterial, Model, State, ExplicitSolver, InstabilityError)
+                               RigidMaterial, Model, State, ExplicitSolver, InstabilityError,
+                               Contact, ContactLaw, assign_fields)
 
 See ``docs/mpm.md`` for the algorithm and ``docs/verification.md`` for the tests.
 """
 
 from tissuempm.mpm.config import Control, SolverConfig
+from tissuempm.mpm.contact import Contact, ContactLaw, assign_fields
 from tissuempm.mpm.errors import InstabilityError
 from tissuempm.mpm.model import Grid, GridBoundary, Model, ParticleData, RigidMaterial
 from tissuempm.mpm.solver import ExplicitSolver
 from tissuempm.mpm.state import State
 
 __all__ = [
+    "Contact",
+    "ContactLaw",
     "Control",
     "ExplicitSolver",
     "Grid",
@@ -25,4 +29,5 @@ __all__ = [
     "RigidMaterial",
     "SolverConfig",
     "State",
+    "assign_fields",
 ]

@@ -8,9 +8,12 @@ CUDA there is one chunk and the adds are atomic. The chunk buffers are zero betw
 steps: a scatter writes inside its chunk's window only, and the grid pass that reduces
 a field zeroes the entries it read.
 
-Grid storage: node ``(i, j, k)`` (``i = -GHOST .. nx + GHOST``) is stored at the flat
-index ``((i + GHOST) * NY + j + GHOST) * NZ + k + GHOST`` with ``NY = ny + 1 + 2 GHOST``
-and ``NZ = nz + 1 + 2 GHOST``.
+Grid storage: node ``(i, j, k)`` (``i = -GHOST .. nx + GHOST``) has the flat node index
+``((i + GHOST) * NY + j + GHOST) * NZ + k + GHOST`` with ``NY = ny + 1 + 2 GHOST``
+and ``NZ = nz + 1 + 2 GHOST``. With ``NF`` velocity fields (multi-body contact,
+:mod:`tissuempm.mpm.contact`) field ``f`` of node ``n`` is record ``n NF + f``: the fields
+of a node are adjacent, so a chunk's scatter window stays as compact as with one field, and
+every kernel is specialised on ``NF`` (``NF = 1`` compiles to the single-field code).
 """
 
 import functools
@@ -61,24 +64,26 @@ BC_VELOCITY = wp.constant(3)
 
 
 @functools.cache
-def transfer_kernels(t: WarpTypes, shape: str) -> SimpleNamespace:
-    """Particle-grid transfer and grid kernels for types ``t`` and ``shape``.
+def transfer_kernels(t: WarpTypes, shape: str, n_fields: int = 1) -> SimpleNamespace:
+    """Particle-grid transfer and grid kernels for types ``t``, ``shape`` and ``n_fields``
+    velocity fields per node.
 
     ``p2g``, ``grid`` and ``g2p`` are functions of the flags (and mode) returning
     kernels specialised at compile time (``wp.static``), so no flag is tested per node.
     """
+    NF = n_fields
     return SimpleNamespace(
-        p2g=lambda flags: _p2g(t, shape, flags),
-        grid=lambda flags, mode: _grid(t, flags, mode),
-        g2p=lambda flags: _g2p(t, shape, flags),
-        reaction=_reaction(t, shape),
+        p2g=lambda flags: _p2g(t, shape, flags, NF),
+        grid=lambda flags, mode: _grid(t, flags, mode, NF),
+        g2p=lambda flags: _g2p(t, shape, flags, NF),
+        reaction=_reaction(t, shape, NF),
         rigid_speed=_rigid_speed(t),
         NP=STENCIL[shape],
     )
 
 
 @functools.cache
-def _helpers(t: WarpTypes, shape: str) -> SimpleNamespace:
+def _helpers(t: WarpTypes, shape: str, NF: int) -> SimpleNamespace:
     s, vec3 = t.scalar, t.vec3
     NP = STENCIL[shape]
     G = GHOST
@@ -87,12 +92,19 @@ def _helpers(t: WarpTypes, shape: str) -> SimpleNamespace:
 
     @wp.func
     def stencil(
-        xp: vec3, p: int, size: wp.array(dtype=vec3), F: wp.array(dtype=t.mat33), origin: vec3, inv_h: s, dims: wp.vec3i
+        xp: vec3,
+        p: int,
+        size: wp.array(dtype=vec3),
+        F: wp.array(dtype=t.mat33),
+        origin: vec3,
+        inv_h: s,
+        dims: wp.vec3i,
+        f: int,
     ):
-        """Flat index ``nb`` of the first stencil node, the flat strides ``sx``, ``sy`` of the x and y
-        axes (z stride 1: node (i, j, k) of the stencil is ``nb + i sx + j sy + k``) and the per-axis
-        weights and derivatives [1/m] of particle ``p`` at ``xp`` (its domain from ``size`` and, for
-        cpGIMP, ``F``)."""
+        """Flat record ``nb`` of the first stencil node in velocity field ``f``, the flat strides
+        ``sx``, ``sy`` of the x and y axes (z stride NF: node (i, j, k) of the stencil is
+        ``nb + i sx + j sy + k NF``) and the per-axis weights and derivatives [1/m] of particle
+        ``p`` at ``xp`` (its domain from ``size`` and, for cpGIMP, ``F``)."""
         xi = (xp - origin) * inv_h
         l = domain(size, F, p, inv_h)
         bx, wx, dx = weights(xi[0], l[0], dims[0])
@@ -104,9 +116,18 @@ def _helpers(t: WarpTypes, shape: str) -> SimpleNamespace:
         bz = wp.clamp(bz, -G, dims[2] + G + 1 - NP) + G
         sy = dims[2] + 1 + 2 * G
         sx = (dims[1] + 1 + 2 * G) * sy
-        return bx * sx + by * sy + bz, sx, sy, wx, wy, wz, dx * inv_h, dy * inv_h, dz * inv_h
+        nb = (bx * sx + by * sy + bz) * NF + f
+        return nb, sx * NF, sy * NF, wx, wy, wz, dx * inv_h, dy * inv_h, dz * inv_h
 
-    return SimpleNamespace(stencil=stencil, NP=NP)
+    @wp.func
+    def field_of(field: wp.array(dtype=wp.int32), p: int):
+        """Velocity field of particle ``p`` (0 without contact: the array is not read)."""
+        f = int(0)
+        if wp.static(NF > 1):
+            f = int(field[p])
+        return f
+
+    return SimpleNamespace(stencil=stencil, field_of=field_of, NP=NP)
 
 
 @functools.cache
@@ -127,10 +148,10 @@ def _vec4_helpers(t: WarpTypes) -> SimpleNamespace:
 
 
 @functools.cache
-def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
+def _p2g(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
     s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
-    h = _helpers(t, shape)
-    stencil, NP = h.stencil, h.NP
+    h = _helpers(t, shape, NF)
+    stencil, field_of, NP = h.stencil, h.field_of, h.NP
     pack = _vec4_helpers(t).pack
 
     @kernel
@@ -143,6 +164,7 @@ def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
         F: wp.array(dtype=mat33),
         stress: wp.array(dtype=mat33),
         material: wp.array(dtype=wp.int32),
+        field: wp.array(dtype=wp.int32),
         fixed: wp.array(dtype=wp.int32),
         mat_rigid: wp.array(dtype=wp.int32),
         rigid_vel: wp.array(dtype=vec3),
@@ -164,17 +186,19 @@ def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
         rigid (v_c their material's velocity) and fixed (v_c = 0) particles in ``b_c``;
         FORCE: (f, 0)_i = -sum V_p sigma_p grad S + sum S m_p b_p in ``b_f``.
 
+        Each particle scatters into its own velocity field's records (``field``).
+
         With MASS and ``window`` != 0 (CPU chunks) the chunk's scatter window ``[lo[c], hi[c]]``
-        (flat node indices, for the grid reduction) grows to hold the stencil, ``nb`` to
-        ``nb + (NP - 1)(sx + sy + 1)``.
+        (flat record indices, for the grid reduction) grows to hold the stencil, ``nb`` to
+        ``nb + (NP - 1)(sx + sy + NF)``.
         """
         p = begin + wp.tid()
         mat = material[p]
-        nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(x[p], p, size, F, origin, inv_h, dims)
+        nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(x[p], p, size, F, origin, inv_h, dims, field_of(field, p))
         if wp.static(flags & MASS):
             if window != 0:
                 wp.atomic_min(lo, c, nb)
-                wp.atomic_max(hi, c, nb + (NP - 1) * (sx + sy + 1))
+                wp.atomic_max(hi, c, nb + (NP - 1) * (sx + sy + NF))
         m = mass[p]
         if mat_rigid[mat] != 0:
             if wp.static(flags & MASS):
@@ -182,7 +206,7 @@ def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
                 for i in range(NP):
                     for j in range(NP):
                         for k in range(NP):
-                            b_c[nb + i * sx + j * sy + k] += (wx[i] * wy[j] * wz[k]) * mvr
+                            b_c[nb + i * sx + j * sy + k * NF] += (wx[i] * wy[j] * wz[k]) * mvr
             return
         mv = pack(m * v[p], m)
         mc = vec4(s(0.0), s(0.0), s(0.0), m)
@@ -211,7 +235,7 @@ def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
                 if wp.static(flags & BODY):
                     fa = fa + wij * bf
                 for k in range(NP):
-                    n = nb + i * sx + j * sy + k
+                    n = nb + i * sx + j * sy + k * NF
                     if wp.static(flags & MASS):
                         w = wij * wz[k]
                         b_mm[n] += w * mv
@@ -224,11 +248,10 @@ def _p2g(t: WarpTypes, shape: str, flags: int) -> Any:
 
 
 @functools.cache
-def _grid(t: WarpTypes, flags: int, mode: int) -> Any:
-    s, vec3, vec4 = t.scalar, t.vec3, t.vec4
-    G = GHOST
-    v4 = _vec4_helpers(t)
-    pack, head = v4.pack, v4.head
+def boundary_function(t: WarpTypes) -> Any:
+    """``apply_bc(v, ijk, dims, kinds, vels)``: velocity ``v`` of node ``ijk`` with the grid-face
+    conditions applied (fixed: 0, velocity: the face's velocity, slip: the normal component)."""
+    vec3 = t.vec3
 
     @wp.func
     def apply_bc(
@@ -252,6 +275,24 @@ def _grid(t: WarpTypes, flags: int, mode: int) -> Any:
                     else:
                         out[a] = vels[face][a]
         return out
+
+    return apply_bc
+
+
+@wp.func
+def node_indices(n: int, dims: wp.vec3i):
+    """Grid indices (i, j, k) (ghosts negative or > n) of flat node index ``n``."""
+    NZ = dims[2] + 1 + 2 * GHOST
+    NY = dims[1] + 1 + 2 * GHOST
+    return wp.vec3i(n // (NY * NZ) - GHOST, (n // NZ) % NY - GHOST, n % NZ - GHOST)
+
+
+@functools.cache
+def _grid(t: WarpTypes, flags: int, mode: int, NF: int) -> Any:
+    s, vec3, vec4 = t.scalar, t.vec3, t.vec4
+    v4 = _vec4_helpers(t)
+    pack, head = v4.pack, v4.head
+    apply_bc = boundary_function(t)
 
     @kernel
     def grid(
@@ -289,6 +330,7 @@ def _grid(t: WarpTypes, flags: int, mode: int) -> Any:
                        react = force on the constraint (rigid/fixed) from the rest of the model:
                        R = f + m g - damping m v - m (v_c - v)/dt.
         ``n_bc`` = number of faces with a condition (0: the node's indices are not needed).
+        The index runs over records (node n // NF, field n % NF); each field is solved on its own.
         """
         n = start + wp.tid()
         mm = vec4()
@@ -321,9 +363,7 @@ def _grid(t: WarpTypes, flags: int, mode: int) -> Any:
         cm = cr[3]
         ijk = wp.vec3i()
         if n_bc > 0:
-            NZ = dims[2] + 1 + 2 * G
-            NY = dims[1] + 1 + 2 * G
-            ijk = wp.vec3i(n // (NY * NZ) - G, (n // NZ) % NY - G, n % NZ - G)
+            ijk = node_indices(n // NF, dims)
         vo = vec3()
         inv_m = s(0.0)
         if m > min_mass:
@@ -355,10 +395,10 @@ def _grid(t: WarpTypes, flags: int, mode: int) -> Any:
 
 
 @functools.cache
-def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
+def _g2p(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
     s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
-    h = _helpers(t, shape)
-    stencil, NP = h.stencil, h.NP
+    h = _helpers(t, shape, NF)
+    stencil, field_of, NP = h.stencil, h.field_of, h.NP
     v4 = _vec4_helpers(t)
     pack, head = v4.pack, v4.head
 
@@ -369,8 +409,10 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
         vpic_p: wp.array(dtype=vec3),
         F: wp.array(dtype=mat33),
         L: wp.array(dtype=mat33),
+        stress: wp.array(dtype=mat33),
         size: wp.array(dtype=vec3),
         material: wp.array(dtype=wp.int32),
+        field: wp.array(dtype=wp.int32),
         fixed: wp.array(dtype=wp.int32),
         mat_rigid: wp.array(dtype=wp.int32),
         rigid_vel: wp.array(dtype=vec3),
@@ -395,7 +437,10 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
         MOVE:     v_p <- flip (v_p + sum S (v_i^new - v_i^old)) + (1 - flip) sum S v_i^new
                   (the increments v_i^new - v_i^old are ``v_inc``, from the grid pass),
                   v_pic = sum S v_i^new (``reaction`` gives the constrained particles' reaction share).
-        GRADIENT: L_p = sum v_i (x) grad S (v_i = ``v_grad``), F <- (I + dt L) F, check J > 0.
+        GRADIENT: L_p = sum v_i (x) grad S (v_i = ``v_grad``), F <- (I + dt L) F, check J > 0 for
+                  particles that carry stress (a completely failed, stress-free particle may invert:
+                  it is counted, not an instability).
+        Every sum runs over the particle's own velocity field (``field``).
         POSITION: x <- x + dt v_pic, check that the particle is inside the grid.
         REPROJECT (with MOVE): b_mm_i += S (m_p v_p, m_p) (MUSL), so the re-projection costs no second stencil.
         Rigid particles move with their material's velocity and keep F; fixed ones stay put.
@@ -406,7 +451,7 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
         xp = x[p]
         rigid = mat_rigid[mat] != 0
         if wp.static(flags & (MOVE | GRADIENT)):
-            nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(xp, p, size, F, origin, inv_h, dims)
+            nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(xp, p, size, F, origin, inv_h, dims, field_of(field, p))
             vpic4 = vec4()
             dv4 = vec4()
             c0 = vec4()
@@ -421,7 +466,7 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
                     sg = vec4()
                     sd = vec4()
                     for k in range(NP):
-                        n = nb + i * sx + j * sy + k
+                        n = nb + i * sx + j * sy + k * NF
                         if wp.static(flags & MOVE):
                             vn = v_new[n]
                             sv += wz[k] * vn
@@ -460,7 +505,7 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
                             for j in range(NP):
                                 wij = wx[i] * wy[j]
                                 for k in range(NP):
-                                    b_mm[nb + i * sx + j * sy + k] += (wij * wz[k]) * mv
+                                    b_mm[nb + i * sx + j * sy + k * NF] += (wij * wz[k]) * mv
                 vpic_p[p] = vpic
             if wp.static(flags & GRADIENT):
                 Lp = wp.matrix_from_cols(head(c0), head(c1), head(c2))  # L = sum v_i (x) grad S_i
@@ -470,7 +515,9 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
                 Fn = (wp.identity(n=3, dtype=s) + dt * Lp) * F[p]
                 F[p] = Fn
                 if not (wp.determinant(Fn) > s(0.0)):
-                    wp.atomic_min(bad, c, p)
+                    sp = stress[p]
+                    if not (wp.ddot(sp, sp) == s(0.0)):  # NaN too
+                        wp.atomic_min(bad, c, p)
         if wp.static(flags & POSITION):
             xp = xp + dt * vpic_p[p]
             x[p] = xp
@@ -485,10 +532,10 @@ def _g2p(t: WarpTypes, shape: str, flags: int) -> Any:
 
 
 @functools.cache
-def _reaction(t: WarpTypes, shape: str) -> Any:
+def _reaction(t: WarpTypes, shape: str, NF: int) -> Any:
     s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
-    h = _helpers(t, shape)
-    stencil, NP = h.stencil, h.NP
+    h = _helpers(t, shape, NF)
+    stencil, field_of, NP = h.stencil, h.field_of, h.NP
     head = _vec4_helpers(t).head
 
     @kernel
@@ -498,6 +545,7 @@ def _reaction(t: WarpTypes, shape: str) -> Any:
         size: wp.array(dtype=vec3),
         F: wp.array(dtype=mat33),
         material: wp.array(dtype=wp.int32),
+        field: wp.array(dtype=wp.int32),
         fixed: wp.array(dtype=wp.int32),
         mat_rigid: wp.array(dtype=wp.int32),
         react: wp.array(dtype=vec4),
@@ -514,13 +562,13 @@ def _reaction(t: WarpTypes, shape: str) -> Any:
         p = begin + wp.tid()
         if mat_rigid[material[p]] == 0 and fixed[p] == 0:
             return
-        nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(x[p], p, size, F, origin, inv_h, dims)
+        nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(x[p], p, size, F, origin, inv_h, dims, field_of(field, p))
         m = mass[p]
         rs = vec3()
         for i in range(NP):
             for j in range(NP):
                 for k in range(NP):
-                    n = nb + i * sx + j * sy + k
+                    n = nb + i * sx + j * sy + k * NF
                     cm = g_c[n][3]
                     if cm > s(0.0):
                         rs += (wx[i] * wy[j] * wz[k] * m / cm) * head(react[n])

@@ -170,6 +170,9 @@ class ParticleData:
         Reference fiber directions (normalised here), (n, 3); default (1, 0, 0).
     fixed
         Particles held fixed (zero velocity; the nodes they touch are fixed), (n,) bool.
+    field
+        Velocity field of each particle, (n,) int in ``[0, Model.contact.n_fields)``; default 0
+        (every particle in one field: bonded, single-field MPM).
     """
 
     x: np.ndarray
@@ -179,6 +182,7 @@ class ParticleData:
     velocity: np.ndarray | None = None
     fiber: np.ndarray | None = None
     fixed: np.ndarray | None = None
+    field: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         x = np.array(self.x, dtype=float, copy=True)
@@ -207,6 +211,9 @@ class ParticleData:
             raise ValueError("ParticleData.fiber: zero-length fiber direction")
         self.fiber = fib / norm[:, None]
         self.fixed = _array("fixed", False if self.fixed is None else self.fixed, (n,), bool)
+        self.field = _array("field", 0 if self.field is None else self.field, (n,), np.int32)
+        if np.any(self.field < 0):
+            raise ValueError("ParticleData.field: velocity field indices must be >= 0")
 
     @property
     def n(self) -> int:
@@ -227,11 +234,15 @@ class Model:
         (:class:`RigidMaterial`); ``ParticleData.material`` indexes this list.
     boundaries
         Velocity conditions on grid faces.
+    contact
+        Velocity fields and the contact law between them
+        (:class:`~tissuempm.mpm.contact.Contact`); None: one field (all bodies bonded).
     """
 
     grid: Grid
     materials: list[Any]
     boundaries: list[GridBoundary] = field(default_factory=list)
+    contact: Any = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.grid, Grid):
@@ -246,6 +257,15 @@ class Model:
         for b in self.boundaries:
             if not isinstance(b, GridBoundary):
                 raise TypeError(f"Model.boundaries: {b!r} is not a GridBoundary")
+        from tissuempm.mpm.contact import Contact  # contact builds on the kernels, which import this module
+
+        if self.contact is not None and not isinstance(self.contact, Contact):
+            raise TypeError(f"Model.contact = {self.contact!r}: must be a Contact or None")
+
+    @property
+    def n_fields(self) -> int:
+        """Number of velocity fields (1 without contact)."""
+        return 1 if self.contact is None else self.contact.n_fields
 
     @property
     def n_state(self) -> int:

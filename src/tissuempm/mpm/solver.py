@@ -8,6 +8,8 @@ One step (:meth:`ExplicitSolver.step`) for MUSL, parallel sections in brackets::
                     each chunk's scatter window tracked on the way)
     [solve_grid]    reduce the chunk buffers in chunk order (zeroing them); v_i^new = v_i + dt (f_i/m_i
                     + g - alpha v_i); rigid/fixed constraints and grid-face conditions; reaction forces
+    [contact]       with several velocity fields (bodies in contact): the nodal contact correction
+                    of :mod:`tissuempm.mpm.contact` after every grid pass
     [gather(MOVE)]  FLIP/PIC particle velocity, re-projection of (m_p v_p^new, m_p) at the old positions
     [solve_grid]    MUSL: constrained re-projected nodal velocity
     [gather(GRAD)   L_p = sum v_i (x) grad S_ip, F <- (I + dt L) F, x <- x + dt v_pic,
@@ -39,6 +41,7 @@ import warp as wp
 from tissuempm.materials.base import Material
 from tissuempm.mpm import kernels as K
 from tissuempm.mpm.config import Control, SolverConfig
+from tissuempm.mpm.contact import contact_kernel
 from tissuempm.mpm.errors import InstabilityError
 from tissuempm.mpm.launch import Launcher
 from tissuempm.mpm.model import Model, ParticleData, RigidMaterial
@@ -73,14 +76,19 @@ class ExplicitSolver:
         if not self.is_cpu and not wp.is_cuda_available():
             raise RuntimeError(f"device = {cfg.device!r}: CUDA is not available")
         self.threads = cfg.n_threads if self.is_cpu else 1
-        self.kern = K.transfer_kernels(self.t, cfg.shape)
+        self.n_fields = model.n_fields
+        self.kern = K.transfer_kernels(self.t, cfg.shape, self.n_fields)
         grid = model.grid
         self.h = grid.cell_size
         self.dims = wp.vec3i(*grid.shape)
         self.origin = self.t.vec3(*grid.origin)
         self.lower = self.t.vec3(*grid.origin)
         self.upper = self.t.vec3(*grid.upper)
-        self.n_nodes = grid.n_nodes
+        self.n_nodes = grid.n_nodes * self.n_fields  # nodal records: one per node and velocity field
+        if model.contact is not None:
+            kind, mu = model.contact.tables()
+            self.law_kind = wp.array(kind, dtype=wp.int32, device=self.device)
+            self.law_mu = wp.array(mu.astype(self.t.numpy), dtype=self.t.scalar, device=self.device)
         # materials
         n_mat = len(model.materials)
         self.laws: list[tuple[int, Material, Any, wp.array]] = []
@@ -163,6 +171,9 @@ class ExplicitSolver:
         if np.any(pd.material >= n_mat):
             bad = int(np.argmax(pd.material >= n_mat))
             raise ValueError(f"particle {bad}: material index {pd.material[bad]} >= number of materials {n_mat}")
+        if np.any(pd.field >= self.n_fields):
+            bad = int(np.argmax(pd.field >= self.n_fields))
+            raise ValueError(f"particle {bad}: velocity field {pd.field[bad]} >= number of fields {self.n_fields}")
         lo, hi = np.array(self.model.grid.origin), np.array(self.model.grid.upper)
         outside = np.any((pd.x < lo) | (pd.x > hi), axis=1)
         if np.any(outside):
@@ -180,7 +191,7 @@ class ExplicitSolver:
         arrays = {
             "x": pd.x, "x0": pd.x, "v": np.where(pd.fixed[:, None], 0.0, pd.velocity), "mass": density[pd.material] * pd.volume,
             "volume0": pd.volume, "size": pd.size, "F": eye, "L": np.zeros((n, 3, 3)), "stress": np.zeros((n, 3, 3)),
-            "material": pd.material, "fiber": pd.fiber, "fixed": pd.fixed, "work": np.zeros(n),
+            "material": pd.material, "fiber": pd.fiber, "fixed": pd.fixed, "field": pd.field, "work": np.zeros(n),
             "reaction": np.zeros((n, 3)), "vpic": np.zeros((n, 3)), "id": np.arange(n), "state": hist,
         }  # fmt: skip
         rigid = np.array([self.model.is_rigid(i) for i in range(n_mat)])[pd.material]
@@ -356,7 +367,7 @@ class ExplicitSolver:
                 self._launch(
                     p2g,
                     e - b,
-                    [st.x, st.v, st.mass, st.volume0, st.size, st.F, st.stress, st.material, st.fixed,
+                    [st.x, st.v, st.mass, st.volume0, st.size, st.F, st.stress, st.material, st.field, st.fixed,
                      self.mat_rigid, self.rigid_vel, body, *common, b, slot, window, st.lo, st.hi, *self._rows[c]],
                     c,
                 )  # fmt: skip
@@ -368,13 +379,22 @@ class ExplicitSolver:
             st.hi.fill_(self.n_nodes - 1)
         return [task(c, b, e) for c, (b, e) in enumerate(st.chunks)]
 
-    def _solve_grid(self, st: State, flags: int, mode: int, dt: float) -> None:
-        """Reduce the chunk buffers and solve the nodes of the active window (threads split the nodes)."""
+    def _window(self, st: State) -> tuple[int, int]:
+        """Nodal records ``[start, stop)`` that the last MASS scatter touched (all on a GPU)."""
         if self.is_cpu:
-            start, stop = int(st.host["lo"][:: K.SLOT].min()), int(st.host["hi"][:: K.SLOT].max()) + 1
-        else:
-            start, stop = 0, self.n_nodes
+            return int(st.host["lo"][:: K.SLOT].min()), int(st.host["hi"][:: K.SLOT].max()) + 1
+        return 0, self.n_nodes
+
+    def _split(self, start: int, stop: int, launch: Callable[[int, int], None]) -> None:
+        """Run ``launch(a, b)`` on the threads' shares ``[a, b)`` of ``[start, stop)``."""
         edges = np.linspace(start, stop, self.threads + 1).round().astype(int)
+        pieces = [(int(edges[i]), int(edges[i + 1])) for i in range(self.threads) if edges[i + 1] > edges[i]]
+        self._parallel([(lambda a=a, b=b: launch(a, b)) for a, b in pieces])
+
+    def _solve_grid(self, st: State, flags: int, mode: int, dt: float) -> None:
+        """Reduce the chunk buffers and solve the nodes of the active window (threads split the
+        nodes); then, with several velocity fields, the contact correction (:meth:`_contact`)."""
+        start, stop = self._window(st)
         s = self.t.scalar
         kernel = self._ready(self.kern.grid(flags, mode))
         args = [
@@ -384,11 +404,23 @@ class ExplicitSolver:
             s(dt), self._gravity, s(self.config.damping), s(st.min_node_mass), self.dims,
             len(self._bc_face), self.bc_kind, self.bc_vel,
         ]  # fmt: skip
+        self._split(start, stop, lambda a, b: self._launch(kernel, b - a, [a, *args], a))
+        if self.n_fields > 1:
+            self._contact(st, mode, dt, start, stop)
 
-        def task(a: int, b: int) -> Callable[[], None]:
-            return lambda: self._launch(kernel, b - a, [a, *args], a)
-
-        self._parallel([task(int(edges[i]), int(edges[i + 1])) for i in range(self.threads) if edges[i + 1] > edges[i]])
+    def _contact(self, st: State, mode: int, dt: float, start: int, stop: int) -> None:
+        """Contact correction (:func:`~tissuempm.mpm.contact.contact_kernel`) at the nodes whose
+        records ``[start, stop)`` were just solved: ``v_new``, the FLIP increment and the rigid
+        reactions after an UPDATE pass, the constrained velocity after a VELOCITY pass."""
+        nf = self.n_fields
+        s = self.t.scalar
+        kernel = self._ready(contact_kernel(self.t, mode, nf))
+        v_vel = self.g_vgrad if mode == K.VELOCITY else self.g_vnew
+        args = [
+            self.g_mm, self.g_c, v_vel, self.g_vinc, self.g_react, self.law_kind, self.law_mu,
+            s(st.min_node_mass), s(1.0 / dt), start, stop, self.dims, len(self._bc_face), self.bc_kind, self.bc_vel,
+        ]  # fmt: skip
+        self._split(start // nf, (stop - 1) // nf + 1, lambda a, b: self._launch(kernel, b - a, [a, *args], ("contact", a)))
 
     def _gather(self, st: State, flags: int, dt: float, v_grad: wp.array) -> list[Callable[[], None]]:
         """Per chunk: G2P of the parts ``flags`` (MOVE, GRADIENT, POSITION; MOVE | REPROJECT also
@@ -405,14 +437,14 @@ class ExplicitSolver:
                     self._launch(
                         self.kern.reaction,
                         e - b,
-                        [st.x, st.mass, st.size, st.F, st.material, st.fixed, self.mat_rigid, self.g_react, self.g_c,
+                        [st.x, st.mass, st.size, st.F, st.material, st.field, st.fixed, self.mat_rigid, self.g_react, self.g_c,
                          self.origin, s(1.0 / self.h), self.dims, b, st.reaction],
                         c,
                     )  # fmt: skip
                 self._launch(
                     g2p,
                     e - b,
-                    [st.x, st.v, st.vpic, st.F, st.L, st.size, st.material, st.fixed, self.mat_rigid,
+                    [st.x, st.v, st.vpic, st.F, st.L, st.stress, st.size, st.material, st.field, st.fixed, self.mat_rigid,
                      self.rigid_vel, self.g_vinc, self.g_vnew, v_grad, st.mass, self._rows[c][0], self.origin,
                      s(1.0 / self.h), self.dims, self.lower, self.upper, b, c * K.SLOT, s(dt), s(self.config.flip),
                      st.bad],
@@ -561,7 +593,8 @@ class ExplicitSolver:
             V0 W(F) when every law has a strain energy and n <= 20000, else None),
             ``reaction`` {material index: force [N] (3,)} on each rigid material and
             ``fixed_reaction`` [N] (3,) on the fixed particles: the force the rest of the model
-            exerts on them.
+            exerts on them; ``inverted``: particles with J <= 0, which only completely failed,
+            stress-free particles may reach (any other stops the run).
         """
         st = state
         mat = st.material.numpy()
@@ -582,6 +615,7 @@ class ExplicitSolver:
             "strain_energy": None,
             "reaction": {i: R[mat == i].sum(axis=0) for i in range(len(self.model.materials)) if self.model.is_rigid(i)},
             "fixed_reaction": R[fixed & ~rigid].sum(axis=0),
+            "inverted": int(np.sum(~rigid & ~(np.linalg.det(st.F.numpy().astype(float)) > 0))),
         }
         laws = [m for m in self.model.materials if isinstance(m, Material)]
         if st.n <= 20000 and laws and all(m.has_strain_energy for m in laws):

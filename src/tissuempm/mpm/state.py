@@ -34,6 +34,7 @@ PARTICLE_FIELDS: dict[str, tuple[str, tuple[int, ...]]] = {
     "material": ("int", ()),
     "fiber": ("vec3", (3,)),
     "fixed": ("int", ()),
+    "field": ("int", ()),
     "work": ("scalar", ()),
     "reaction": ("vec3", (3,)),
     "vpic": ("vec3", (3,)),
@@ -56,8 +57,8 @@ class State:
         Reference particle edge lengths [m] (uGIMP domain).
     F, L, stress : wp.array(mat33)
         Deformation gradient, velocity gradient [1/s], Cauchy stress [Pa].
-    material, fixed, id : wp.array(int32)
-        Material index, fixed flag, original particle index.
+    material, fixed, field, id : wp.array(int32)
+        Material index, fixed flag, velocity field (contact), original particle index.
     fiber : wp.array(vec3)
         Reference fiber direction a0.
     work : wp.array(scalar)
@@ -133,8 +134,8 @@ class State:
         """Rebuild a state from :meth:`to_numpy` output (exact restart).
 
         ``data`` must hold every key of :data:`RESTART_FIELDS` (``x0``, ``work``, ``reaction``,
-        ``vpic``, ``L`` and ``id`` may be omitted: they default to ``x``, 0, 0, 0, 0 and
-        0..n-1), and may hold ``order``, ``time``, ``step`` and ``dt_ref``.
+        ``vpic``, ``L``, ``id`` and ``field`` may be omitted: they default to ``x``, 0, 0, 0, 0,
+        0..n-1 and 0), and may hold ``order``, ``time``, ``step`` and ``dt_ref``.
         """
         n = np.asarray(data["x"]).shape[0]
         defaults = {
@@ -144,6 +145,7 @@ class State:
             "vpic": lambda: np.zeros((n, 3)),
             "L": lambda: np.zeros((n, 3, 3)),
             "id": lambda: np.arange(n),
+            "field": lambda: np.zeros(n, dtype=np.int32),
         }
         arrays: dict[str, np.ndarray] = {}
         for name in RESTART_FIELDS:

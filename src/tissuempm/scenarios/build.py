@@ -5,7 +5,8 @@ Bodies are seeded in file order; a point already claimed by an earlier body is
 skipped, so overlapping bodies never place two particles at one spot. Fiber
 directions come from each body's fiber field (default: uniform along x).
 Particles inside a ``[[fixed]]`` region (of the listed bodies, or all) are held
-at zero velocity.
+at zero velocity. ``[[contact]]`` pairs give bodies their own velocity fields
+(:func:`~tissuempm.mpm.contact.assign_fields`); unlisted pairs are bonded.
 
 A load with an amplitude a(t) enters the config and model at its t = 0 value
 (gravity g a(0), velocity v a(0)); :class:`Loading` gives its value at every
@@ -138,7 +139,7 @@ def build_model(scenario: Scenario) -> Model:
     materials = scenario.build_materials()
     for i, velocity in start.rigid_velocity.items():
         materials[i] = dataclasses.replace(materials[i], velocity=velocity)
-    return Model(grid, materials, boundaries)
+    return Model(grid, materials, boundaries, contact=scenario.contact_fields()[1])
 
 
 def seed_particles(scenario: Scenario, model: Model) -> tuple[ParticleData, np.ndarray]:
@@ -172,7 +173,8 @@ def seed_particles(scenario: Scenario, model: Model) -> tuple[ParticleData, np.n
             mask &= np.isin(data["body"], ids)
         fixed |= mask
     body = data.pop("body")
-    return ParticleData(fixed=fixed, **data), body
+    body_field = scenario.contact_fields()[0]
+    return ParticleData(fixed=fixed, field=body_field[body], **data), body
 
 
 def build(scenario: Scenario, device: str = "cpu") -> Problem:

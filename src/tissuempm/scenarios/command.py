@@ -53,10 +53,14 @@ def run(
     ] = None,
     device: Annotated[str, typer.Option("--device", help="cpu or cuda.")] = "cpu",
     restart: Annotated[bool, typer.Option("--restart", help="Continue from the last checkpoint in the output folder.")] = False,
+    overrides: Annotated[
+        list[str] | None,
+        typer.Option("--set", help="Override a key: --set solver.cfl=0.1 --set 'body[0].velocity=[0, \"150 m/s\", 0]'."),
+    ] = None,
 ) -> None:
     """Run an MPM scenario: VTU frames + .pvd for ParaView, HDF5 checkpoints and summary.json."""
     try:
-        sc = load_scenario(scenario)
+        sc = load_scenario(scenario, overrides)
     except ScenarioError as e:
         console.print(f"[red]error:[/red] {e}", markup=True, highlight=False)
         raise typer.Exit(2) from None

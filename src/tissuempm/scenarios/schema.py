@@ -356,6 +356,27 @@ class FixedSection(Section):
     bodies: list[str] | None = None
 
 
+class ContactSection(Section):
+    """``[[contact]]``: how two bodies interact (:mod:`tissuempm.mpm.contact`).
+
+    Pairs not listed are ``bonded`` (one velocity field: they stick together, as single-field
+    MPM); ``frictionless`` and ``friction`` give each side its own velocity field, allow
+    separation and sliding and forbid interpenetration, with Coulomb friction ``mu``.
+    """
+
+    bodies: Annotated[list[str], Field(min_length=2, max_length=2)]
+    law: Literal["bonded", "frictionless", "friction"] = "friction"
+    mu: Annotated[float, Field(ge=0.0, allow_inf_nan=False)] = 0.0
+
+    @model_validator(mode="after")
+    def _mu_with_friction(self) -> "ContactSection":
+        if self.law != "friction" and self.mu != 0.0:
+            raise ValueError(f"mu = {self.mu} is only valid with law = 'friction' (law is {self.law!r})")
+        if self.bodies[0] == self.bodies[1]:
+            raise ValueError(f"bodies = {self.bodies}: a body cannot be in contact with itself")
+        return self
+
+
 # ---------------------------------------------------------------------------- [run]
 
 
@@ -480,6 +501,7 @@ class Scenario(Section):
     bodies: Annotated[list[BodySection], Field(alias="body", min_length=1)]
     boundaries: Annotated[list[BoundarySection], Field(alias="boundary")] = []
     fixed: list[FixedSection] = []
+    contacts: Annotated[list[ContactSection], Field(alias="contact")] = []
     amplitudes: dict[str, AmplitudeSpec] = {}
     run: RunSection
 
@@ -503,6 +525,19 @@ class Scenario(Section):
             for b in fix.bodies or []:
                 if b not in body_names:
                     raise ValueError(f"fixed[{i}].bodies: {b!r} is not a body name: choose from {body_names}")
+        pairs = set()
+        for i, c in enumerate(self.contacts):
+            for b in c.bodies:
+                if b not in body_names:
+                    raise ValueError(f"contact[{i}].bodies: {b!r} is not a body name: choose from {body_names}")
+            if frozenset(c.bodies) in pairs:
+                raise ValueError(f"contact[{i}].bodies: a second law for the pair {c.bodies}")
+            pairs.add(frozenset(c.bodies))
+        if self.contacts:
+            try:
+                self.contact_fields()
+            except ValueError as e:
+                raise ValueError(str(e)) from None
         seen = set()
         for i, bc in enumerate(self.boundaries):
             if (bc.axis, bc.side) in seen:
@@ -531,6 +566,18 @@ class Scenario(Section):
     def rigid_drivers(self) -> dict[int, RigidSpec]:
         """The ``kind = "rigid"`` materials by material index."""
         return {i: _rigid_spec(data) for i, data in enumerate(self.materials.values()) if data.get("kind") == "rigid"}
+
+    def body_names(self) -> list[str]:
+        """Each body's name (``body[i]`` for an unnamed one)."""
+        return [b.name or f"body[{i}]" for i, b in enumerate(self.bodies)]
+
+    def contact_fields(self) -> tuple[Any, Any]:
+        """(velocity field of each body, :class:`~tissuempm.mpm.contact.Contact` or None) from
+        ``[[contact]]`` (:func:`~tissuempm.mpm.contact.assign_fields`)."""
+        from tissuempm.mpm.contact import ContactLaw, assign_fields
+
+        laws = {tuple(c.bodies): ContactLaw(c.law, c.mu) for c in self.contacts}
+        return assign_fields(self.body_names(), laws)  # type: ignore[arg-type]
 
     def build_materials(self) -> list[Any]:
         """Material objects in the order of ``[materials]`` (material id = position)."""
@@ -575,8 +622,11 @@ def format_errors(error: ValidationError) -> str:
     return f"{n} error{'s' if n > 1 else ''} in scenario:\n  " + "\n  ".join(lines)
 
 
-def load_scenario(path: str | Path) -> Scenario:
-    """Read and validate a TOML scenario file."""
+def load_scenario(path: str | Path, overrides: list[str] | None = None) -> Scenario:
+    """Read and validate a TOML scenario file, with ``overrides`` (``KEY=VALUE``,
+    :mod:`tissuempm.scenarios.overrides`) applied before validation."""
+    from tissuempm.scenarios.overrides import apply_overrides
+
     path = Path(path)
     try:
         data = tomllib.loads(path.read_text())
@@ -585,6 +635,6 @@ def load_scenario(path: str | Path) -> Scenario:
     except tomllib.TOMLDecodeError as e:
         raise ScenarioError(f"{path} is not valid TOML: {e}") from None
     try:
-        return Scenario.from_dict(data)
+        return Scenario.from_dict(apply_overrides(data, overrides or []))
     except ScenarioError as e:
         raise ScenarioError(f"{path}: {e}") from None
