@@ -7,6 +7,7 @@
     tissuempm materials plot NAME -o FILE.png
     tissuempm calibrate CONFIG.toml [--out DIR] [--json]
     tissuempm run SCENARIO.toml [--out DIR] [--device cpu|cuda] [--restart]
+    tissuempm wound RUN_DIR [--frame N] [--json] [--out DIR] [--projectile NAME] [--tissue NAME] [--no-figures]
 """
 
 import json
@@ -266,11 +267,13 @@ def materials_plot(
 
 def _register_commands() -> None:
     """Commands of the calibration and MPM subpackages (imported here to keep them out of `materials`)."""
+    from tissuempm.analysis.command import wound
     from tissuempm.calibration.command import calibrate
     from tissuempm.scenarios.command import run
 
     app.command("calibrate")(calibrate)
     app.command("run")(run)
+    app.command("wound")(wound)
 
 
 _register_commands()

@@ -1,0 +1,90 @@
+"""``tissuempm wound RUN_DIR``: measure the wound of a run, print it, write wound.json and figures
+(registered in :mod:`tissuempm.cli`)."""
+
+import json
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from tissuempm.analysis.errors import AnalysisError
+from tissuempm.analysis.report import Opening, WoundReport
+from tissuempm.analysis.wound import analyse_wound
+from tissuempm.io import write_json
+
+console = Console()
+err_console = Console(stderr=True)
+
+
+def _mm(value: float | None) -> str:
+    return "-" if value is None else f"{value * 1e3:.2f} mm"
+
+
+def _opening_row(table: Table, wound: Opening) -> None:
+    if not wound.hole:
+        table.add_row(f"{wound.face} wound", "no opening")
+        return
+    angle = "-" if wound.fiber_angle_deg is None else f"{wound.fiber_angle_deg:.0f} deg"
+    table.add_row(
+        f"{wound.face} wound",
+        f"D {_mm(wound.diameter)}, {_mm(wound.major)} x {_mm(wound.minor)} "
+        f"(aspect {wound.aspect_ratio:.2f}), long axis at {wound.orientation_deg:.0f} deg, fiber at {angle}",
+    )
+
+
+def _table(report: WoundReport, out: Path | None) -> Table:
+    p, f, t = report.projectile, report.failure, report.tract
+    table = Table(title=f"wound of {report.run_dir}: frame {report.frame} of {report.frame_count - 1}, "
+                        f"t = {report.time * 1e6:.1f} us")
+    table.add_column("measure")
+    table.add_column("value")
+    table.add_row("bodies", f"projectile {p.name!r}, tissue {', '.join(map(repr, report.tissue_bodies))}")
+    table.add_row("thickness along the shot", _mm(report.thickness))
+    table.add_row("perforated", f"{'yes' if report.perforated else 'no'} (projectile tail at "
+                                f"{_mm(report.projectile_tail_depth)} from the entry face)")
+    table.add_row("impact / residual speed", f"{p.impact_speed:.2f} / {p.residual_speed:.2f} m/s")
+    table.add_row("energy deposited", f"{p.energy_deposited:.4g} J ({100 * p.energy_deposited_fraction:.1f} %)")
+    table.add_row("tissue failed", ", ".join(f"{k} {100 * v:.2f} %" for k, v in f.fractions.items())
+                  + f"; of all particles {100 * f.failed_fraction_all:.2f} %")
+    _opening_row(table, report.entry)
+    _opening_row(table, report.exit)
+    table.add_row("cavity diameter max / mean", f"{_mm(t.cavity_max)} / {_mm(t.cavity_mean)}")
+    table.add_row("cavity + failed max / mean", f"{_mm(t.cavity_failed_max)} / {_mm(t.cavity_failed_mean)}")
+    slope = "-" if t.slope is None else f"{t.slope:+.3f} ({t.widening})"
+    table.add_row("tract diameter slope", slope)
+    if out is not None:
+        table.add_row("written to", str(out))
+    return table
+
+
+def wound(
+    run_dir: Annotated[Path, typer.Argument(help="Run folder written by `tissuempm run --out`.")],
+    frame: Annotated[int, typer.Option("--frame", help="Frame to analyse; negative counts from the end.")] = -1,
+    json_output: Annotated[bool, typer.Option("--json", help="Print the report as JSON on stdout.")] = False,
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Folder for wound.json and figures "
+                                                "(default RUN_DIR/wound).")] = None,
+    projectile: Annotated[Optional[str], typer.Option("--projectile", help="Projectile body name "
+                                                      "(default: largest initial kinetic energy).")] = None,
+    tissue: Annotated[Optional[list[str]], typer.Option("--tissue", help="Tissue body name (repeat for several; "
+                                                        "default: every other body with a failure model).")] = None,
+    no_figures: Annotated[bool, typer.Option("--no-figures", help="Write wound.json only.")] = False,
+) -> None:
+    """Measure the wound of a penetration run: perforation, entry/exit wounds, tract profile (docs/wound.md)."""
+    try:
+        report = analyse_wound(run_dir, frame, projectile, tissue or None)
+    except AnalysisError as e:
+        err_console.print(f"[red]error:[/red] {e}", highlight=False)
+        raise typer.Exit(2) from None
+    out_dir = out if out is not None else run_dir / "wound"
+    data = report.to_dict()
+    write_json(out_dir / "wound.json", data)
+    if not no_figures:
+        from tissuempm.analysis.figures import wound_figures
+
+        wound_figures(report, out_dir)
+    if json_output:
+        typer.echo(json.dumps(data, indent=2))
+    else:
+        console.print(_table(report, out_dir))

@@ -1,0 +1,310 @@
+"""Wound measures of a run and :func:`analyse_wound` (definitions and thresholds in docs/wound.md).
+
+The analysis reads every frame once for the projectile's centroid path (the shot line), then measures
+the analysed frame: perforation, projectile velocities and energy, failure tallies, the entry and exit
+openings (face layers projected on the plane normal to the shot line) and the tract profile (thin
+cross sections one particle spacing apart), all with the rasterisation of
+:mod:`tissuempm.analysis.raster`.
+"""
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from tissuempm.analysis.bodies import Roles, assign_roles, kinetic_energy
+from tissuempm.analysis.errors import AnalysisError
+from tissuempm.analysis.frames import Frame, Run
+from tissuempm.analysis.raster import (
+    PIXELS_PER_SPACING,
+    Raster,
+    coverage,
+    equivalent_diameter,
+    fit_ellipse,
+    wound_region,
+)
+from tissuempm.analysis.report import (
+    FAILURE_LABELS,
+    FailureTally,
+    Opening,
+    Projectile,
+    Station,
+    Tract,
+    WoundReport,
+)
+from tissuempm.analysis.shotline import Faces, ShotLine, shot_line, tissue_faces
+
+FAILED_BOTH = 3
+"""Failure code of complete failure (matrix and fiber)."""
+WINDOW_WIDENING = 0.25
+"""Rasters are clipped to the tissue's reference in-plane extent widened by this fraction of it per side."""
+
+
+@dataclass(frozen=True)
+class Setup:
+    """A run prepared for measuring one frame: body roles, shot line and the tissue's faces."""
+
+    run: Run
+    first: Frame
+    frame: Frame
+    roles: Roles
+    line: ShotLine
+    faces: Faces
+    window: tuple[np.ndarray, np.ndarray]
+    """In-plane bounds rasters are clipped to."""
+    search_radius: float
+    """How far from the shot line an opening may lie: the projectile's in-plane radius plus h / 2."""
+
+    @property
+    def projectile(self) -> np.ndarray:
+        """Mask of the projectile's particles (the same rows in every frame)."""
+        return self.first.fields["body"] == self.roles.projectile
+
+    @property
+    def tissue(self) -> np.ndarray:
+        """Mask of the tissue's particles."""
+        return np.isin(self.first.fields["body"], self.roles.tissue)
+
+
+def mean_velocity(frame: Frame, mask: np.ndarray) -> np.ndarray:
+    """Mass-weighted mean velocity ``sum m v / sum m`` of the particles in ``mask``."""
+    mass = frame.field("mass")[mask]
+    return mass @ frame.field("velocity")[mask] / mass.sum()
+
+
+def centroid(frame: Frame, mask: np.ndarray) -> np.ndarray:
+    """Mass-weighted centroid ``sum m x / sum m`` of the particles in ``mask``."""
+    mass = frame.field("mass")[mask]
+    return mass @ frame.points[mask] / mass.sum()
+
+
+def prepare(
+    run_dir: str | Path, frame: int = -1, projectile: str | None = None, tissue: str | Sequence[str] | None = None
+) -> Setup:
+    """Read the run, assign body roles and find the shot line and the tissue's faces.
+
+    Raises
+    ------
+    AnalysisError
+        For a missing or malformed run, a frame out of range, unknown or unusable bodies.
+    """
+    run = Run(run_dir)
+    index = run.resolve(frame)
+    first = run.load(0)
+    roles = assign_roles(first, run.body_names, projectile, tissue)
+    proj = first.fields["body"] == roles.projectile
+    centroids, analysed = [], first
+    for i in range(len(run)):
+        current = first if i == 0 else run.load(i)
+        if len(current.points) != len(first.points):
+            raise AnalysisError(f"frame {i} has {len(current.points)} particles, frame 0 has {len(first.points)}")
+        centroids.append(centroid(current, proj))
+        analysed = current if i == index else analysed
+    line = shot_line(np.array(centroids), mean_velocity(first, proj))
+    tissue_rows = np.isin(first.fields["body"], roles.tissue)
+    faces = tissue_faces(line, first.field("x0")[tissue_rows], first.field("size")[tissue_rows])
+    uv0 = line.inplane(first.field("x0")[tissue_rows])
+    lo, hi = uv0.min(axis=0), uv0.max(axis=0)
+    widen = WINDOW_WIDENING * float(np.max(hi - lo))
+    radius = float(np.max(np.linalg.norm(line.inplane(first.points[proj]), axis=1))) + 0.5 * faces.spacing
+    return Setup(run, first, analysed, roles, line, faces, (lo - widen, hi + widen), radius)
+
+
+def projectile_motion(setup: Setup) -> Projectile:
+    """Impact and residual velocity and the kinetic energy the projectile lost."""
+    mask, first, frame = setup.projectile, setup.first, setup.frame
+    v0, v1 = mean_velocity(first, mask), mean_velocity(frame, mask)
+    k0 = kinetic_energy(first.field("mass")[mask], first.field("velocity")[mask])
+    k1 = kinetic_energy(frame.field("mass")[mask], frame.field("velocity")[mask])
+    return Projectile(
+        name=setup.roles.projectile_name,
+        particles=int(mask.sum()),
+        mass=float(first.field("mass")[mask].sum()),
+        impact_velocity=_vector(v0),
+        impact_speed=float(np.linalg.norm(v0)),
+        residual_velocity=_vector(v1),
+        residual_speed=float(np.linalg.norm(v1)),
+        kinetic_energy_initial=k0,
+        kinetic_energy=k1,
+        energy_deposited=k0 - k1,
+        energy_deposited_fraction=(k0 - k1) / k0 if k0 > 0 else 0.0,
+    )
+
+
+def failure_tally(setup: Setup) -> FailureTally:
+    """Counts and fractions of the tissue's failure states in the analysed frame."""
+    codes = setup.frame.fields["failure"][setup.tissue]
+    counts = {name: int(np.sum(codes == k)) for k, name in enumerate(FAILURE_LABELS)}
+    counts["failed"] = int(np.sum(codes > 0))
+    n, total = len(codes), len(setup.frame.points)
+    return FailureTally(
+        tissue_particles=n,
+        all_particles=total,
+        counts=counts,
+        fractions={k: c / n for k, c in counts.items()},
+        failed_fraction_all=counts["failed"] / total,
+    )
+
+
+def face_layer(setup: Setup, face: str) -> np.ndarray:
+    """Mask of the tissue particles whose reference centre lies within one spacing of the ``face``
+    (``"entry"`` or ``"exit"``): the layer of particles whose reference cells form that face."""
+    s0 = setup.line.axial(setup.first.field("x0"))
+    h = setup.faces.spacing
+    near = s0 < setup.faces.entry + h if face == "entry" else s0 > setup.faces.exit - h
+    return setup.tissue & near
+
+
+def _opening(setup: Setup, uv: np.ndarray, solid: np.ndarray) -> tuple[Raster, np.ndarray | None]:
+    """Raster of particles at ``uv`` of which those in ``solid`` are tissue, and its wound region."""
+    raster = Raster.around(uv, setup.faces.spacing, setup.window)
+    return raster, wound_region(raster, coverage(raster, uv[solid]), setup.search_radius)
+
+
+def nematic_direction(vectors: np.ndarray) -> tuple[np.ndarray, float] | None:
+    """Sign-insensitive mean direction of 2-D ``vectors`` (k, 2) and its order parameter.
+
+    The direction is the principal eigenvector of ``T = sum a a^T`` (so ``a`` and ``-a`` count alike,
+    and vectors nearly normal to the plane, short after projection, count little); the order is
+    ``(l1 - l2) / (l1 + l2)`` of its eigenvalues. None for no vectors or all zero.
+    """
+    tensor = vectors.T @ vectors
+    values, directions = np.linalg.eigh(tensor)
+    if values.sum() <= 0.0:
+        return None
+    return directions[:, 1], float((values[1] - values[0]) / values.sum())
+
+
+def opening(setup: Setup, face: str) -> Opening:
+    """The entry or exit wound (``face``): the opening in the face layer around the shot line."""
+    layer = face_layer(setup, face)
+    uv = setup.line.inplane(setup.frame.points[layer])
+    codes = setup.frame.fields["failure"][layer]
+    raster, region = _opening(setup, uv, codes != FAILED_BOTH)
+    if region is None:
+        return Opening(face, False, int(layer.sum()))
+    ellipse = fit_ellipse(raster, region)
+    found = None
+    if "fiber_current" in setup.frame.fields:
+        near = (codes == 0) & (np.linalg.norm(uv - ellipse.centre, axis=1) <= ellipse.diameter)
+        found = nematic_direction(setup.line.project(setup.frame.field("fiber_current")[layer][near]))
+    fiber = {}
+    if found is not None:
+        direction, order = found
+        cosine = min(1.0, abs(float(direction @ ellipse.direction)))
+        fiber = {"fiber_direction": _vector(setup.line.lift(direction)), "fiber_order": order,
+                 "fiber_angle_deg": float(np.degrees(np.arccos(cosine)))}
+    return Opening(
+        face=face,
+        hole=True,
+        particles=int(layer.sum()),
+        area=ellipse.area,
+        diameter=ellipse.diameter,
+        major=ellipse.major,
+        minor=ellipse.minor,
+        aspect_ratio=ellipse.major / ellipse.minor if ellipse.minor > 0 else None,
+        orientation_deg=ellipse.orientation_deg,
+        long_axis=_vector(setup.line.lift(ellipse.direction)),
+        offset=(float(ellipse.centre[0]), float(ellipse.centre[1])),
+        **fiber,
+    )
+
+
+def station_depths(faces: Faces) -> np.ndarray:
+    """Depths of the tract stations from the entry face: the centres of ``round(thickness / h)`` equal slices."""
+    n = max(1, round(faces.thickness / faces.spacing))
+    return (np.arange(n) + 0.5) * faces.thickness / n
+
+
+def station(setup: Setup, depth: float) -> Station:
+    """Cavity and cavity-plus-failed-layer diameters of the tissue within h / 2 (current axial
+    coordinate) of the cross section ``depth`` behind the entry face."""
+    s = setup.line.axial(setup.frame.points)
+    near = setup.tissue & (np.abs(s - setup.faces.entry - depth) < 0.5 * setup.faces.spacing)
+    uv = setup.line.inplane(setup.frame.points[near])
+    codes = setup.frame.fields["failure"][near]
+    return Station(
+        depth=float(depth),
+        cavity_diameter=equivalent_diameter(*_opening(setup, uv, codes != FAILED_BOTH)),
+        cavity_failed_diameter=equivalent_diameter(*_opening(setup, uv, codes == 0)),
+    )
+
+
+def _summary(values: np.ndarray) -> tuple[float, float]:
+    """Max over all and mean over the non-zero ``values`` (0, 0 when all are zero)."""
+    open_ = values[values > 0]
+    return (float(open_.max()), float(open_.mean())) if len(open_) else (0.0, 0.0)
+
+
+def tract_profile(setup: Setup) -> Tract:
+    """The stations from entry to exit, the diameters' max and mean, and the widening trend."""
+    stations = tuple(station(setup, d) for d in station_depths(setup.faces))
+    depth = np.array([st.depth for st in stations])
+    cavity = np.array([st.cavity_diameter for st in stations])
+    failed = np.array([st.cavity_failed_diameter for st in stations])
+    slope, widening = None, None
+    if np.count_nonzero(cavity) >= 2:
+        slope = float(np.polyfit(depth[cavity > 0], cavity[cavity > 0], 1)[0])
+        change = slope * setup.faces.thickness
+        widening = "uniform" if abs(change) < setup.faces.spacing else ("widens" if change > 0 else "narrows")
+    return Tract(stations, *_summary(cavity), *_summary(failed), slope, widening)
+
+
+def analyse_wound(
+    run_dir: str | Path, frame: int = -1, projectile: str | None = None, tissue: str | Sequence[str] | None = None
+) -> WoundReport:
+    """Measure the wound of a run in one frame.
+
+    Parameters
+    ----------
+    run_dir
+        A folder written by ``tissuempm run``.
+    frame
+        Frame index; negative counts from the end (default: the last frame).
+    projectile
+        Name of the projectile body (default: the body with the largest initial kinetic energy).
+    tissue
+        Name(s) of the tissue bodies (default: every other body with a failure model).
+
+    Returns
+    -------
+    WoundReport
+        See docs/wound.md for every field.
+
+    Raises
+    ------
+    AnalysisError
+        For a missing or malformed run, a frame out of range, unknown or unusable bodies.
+    """
+    setup = prepare(run_dir, frame, projectile, tissue)
+    line, faces = setup.line, setup.faces
+    tail = float(line.axial(setup.frame.points[setup.projectile]).min())
+    return WoundReport(
+        run_dir=str(setup.run.path),
+        frame=setup.frame.index,
+        frame_count=len(setup.run),
+        time=setup.frame.time,
+        projectile_body=setup.roles.projectile_name,
+        tissue_bodies=tuple(setup.roles.tissue_names),
+        origin=_vector(line.origin),
+        axis=_vector(line.axis),
+        e1=_vector(line.e1),
+        e2=_vector(line.e2),
+        spacing=faces.spacing,
+        pixel=faces.spacing / PIXELS_PER_SPACING,
+        entry_face=faces.entry,
+        exit_face=faces.exit,
+        thickness=faces.thickness,
+        perforated=tail > faces.exit,
+        projectile_tail_depth=tail - faces.entry,
+        projectile=projectile_motion(setup),
+        failure=failure_tally(setup),
+        entry=opening(setup, "entry"),
+        exit=opening(setup, "exit"),
+        tract=tract_profile(setup),
+    )
+
+
+def _vector(a: np.ndarray) -> tuple[float, ...]:
+    return tuple(float(c) for c in a)
