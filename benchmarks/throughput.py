@@ -1,7 +1,10 @@
 """Throughput of the explicit MPM solver in particle-steps per second.
 
-Cases: ``neo_hookean`` (a block of NeoHookean tissue, free flight with random velocities) and
-``weiss_failure`` (the same block with TwoSurfaceFailure(Weiss)); float64 and float32; one
+Cases: ``neo_hookean`` (a block of NeoHookean tissue, free flight with random velocities),
+``weiss_failure`` (the same block with TwoSurfaceFailure(Weiss)) and ``weiss_failure_contact``
+(that block cut in two halves at x = mid, each its own velocity field, in frictional contact
+mu = 0.08 and pressed together at 1 m/s: the multi-field step of tissuempm.mpm.contact at the
+same particle count, to compare with ``weiss_failure``); float64 and float32; one
 thread and all threads; uGIMP; the transfer schemes given (default MUSL, the solver's
 default, and USL, one P2G and one G2P per step).
 
@@ -9,6 +12,8 @@ Usage::
 
     python benchmarks/throughput.py [--cells 24] [--ppc 2] [--steps 20] [--repeat 3]
                                     [--transfer musl usl] [--device cpu|cuda] [--json] [--quick]
+                                    [--cases neo_hookean weiss_failure weiss_failure_contact]
+                                    [--precision float64 float32]
 
 ``--json`` prints one JSON record per case with ``case``, ``precision``, ``threads``,
 ``shape_function``, ``transfer``, ``device``, ``particles``, ``particle_steps_per_s`` (the median
@@ -26,7 +31,9 @@ import time
 import numpy as np
 
 from tissuempm.materials import NeoHookean, TwoSurfaceFailure, Weiss
-from tissuempm.mpm import ExplicitSolver, Grid, Model, ParticleData, SolverConfig
+from tissuempm.mpm import Contact, ContactLaw, ExplicitSolver, Grid, Model, ParticleData, SolverConfig
+
+CASES = ("neo_hookean", "weiss_failure", "weiss_failure_contact")
 
 
 def machine() -> dict:
@@ -53,8 +60,13 @@ def run_case(case, precision, threads, cells, ppc, steps, shape="gimp", transfer
     X = np.stack(np.meshgrid(xs, xs, xs, indexing="ij"), -1).reshape(-1, 3)
     rng = np.random.default_rng(0)
     v = 0.05 * rng.standard_normal(X.shape)
-    pd = ParticleData(x=X, volume=(h / ppc) ** 3, size=h / ppc, material=0, velocity=v)
-    solver = ExplicitSolver(Model(grid=grid, materials=[material(case)]),
+    field, contact = 0, None
+    if case.endswith("_contact"):
+        field = (X[:, 0] >= 2 * h + n * h / 2).astype(int)
+        v[:, 0] += np.where(field == 0, 0.5, -0.5)
+        contact = Contact(2, {(0, 1): ContactLaw("friction", 0.08)})
+    pd = ParticleData(x=X, volume=(h / ppc) ** 3, size=h / ppc, material=0, velocity=v, field=field)
+    solver = ExplicitSolver(Model(grid=grid, materials=[material(case)], contact=contact),
                             SolverConfig(shape=shape, precision=precision, threads=threads, transfer=transfer,
                                          device=device))  # fmt: skip
     st = solver.initial_state(pd)
@@ -92,6 +104,9 @@ def main() -> None:
     ap.add_argument("--transfer", nargs="+", default=["musl", "usl"], choices=["musl", "usl", "usf"],
                     help="transfer schemes (default: musl usl)")
     ap.add_argument("--device", default="cpu", help="cpu or cuda (default cpu)")
+    ap.add_argument("--cases", nargs="+", default=list(CASES), choices=CASES, help="cases (default: all)")
+    ap.add_argument("--precision", nargs="+", default=["float64", "float32"], choices=["float64", "float32"],
+                    help="precisions (default: both)")
     ap.add_argument("--json", action="store_true", help="one JSON record per case")
     args = ap.parse_args()
     if args.quick:
@@ -100,8 +115,8 @@ def main() -> None:
     all_threads = (os.cpu_count() or 1) if args.device == "cpu" else 1
     if not args.json:
         print(f"machine: {mach}")
-    for case in ("neo_hookean", "weiss_failure"):
-        for precision in ("float64", "float32"):
+    for case in args.cases:
+        for precision in args.precision:
             for transfer in args.transfer:
                 for threads in sorted({1, all_threads}):
                     rec = run_case(case, precision, threads, args.cells, args.ppc, args.steps,

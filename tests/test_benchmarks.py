@@ -16,7 +16,7 @@ def throughput():
     return mod
 
 
-@pytest.mark.parametrize("case, transfer", [("neo_hookean", "usl"), ("weiss_failure", "musl")])
+@pytest.mark.parametrize("case, transfer", [("neo_hookean", "usl"), ("weiss_failure", "musl"), ("weiss_failure_contact", "musl")])
 def test_throughput_record_has_the_documented_fields(throughput, case, transfer):
     rec = throughput.run_case(case, "float64", 1, cells=3, ppc=2, steps=2, transfer=transfer, repeat=3)
     for key in ("case", "precision", "threads", "shape_function", "transfer", "particles", "particle_steps_per_s"):

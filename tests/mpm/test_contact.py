@@ -272,3 +272,51 @@ def test_rigid_flat_punch_presses_and_releases_the_block():
     assert np.abs(f[late, 1]).max() < 0.02 * expected  # separated: no force
     top0 = Hb - sp / 2  # the top particle row
     assert abs(tops[-1] - top0) < 0.02 * delta + 0.1 * delta  # recovered (elastic oscillation allowed)
+
+
+# ------------------------------------------------------------------------------ full versions (docs/verification.md)
+def _figure_dir():
+    import os
+    from pathlib import Path
+
+    d = os.environ.get("TISSUEMPM_FIGURES")
+    return Path(d) if d else None
+
+
+@pytest.mark.slow
+def test_contact_verification_full():
+    """Prints the contact verification table of docs/verification.md; with TISSUEMPM_FIGURES=DIR
+    also writes contact_disks.png there (energy and centre distance, contact vs one field)."""
+    for theta, law in [(30.0, ContactLaw("friction", 0.3)), (30.0, ContactLaw("frictionless")),
+                       (20.0, ContactLaw("friction", 0.2)), (10.0, ContactLaw("friction", 0.3))]:  # fmt: skip
+        th = np.radians(theta)
+        exact = max(0.0, G * (np.sin(th) - law.mu * np.cos(th)))
+        a = _incline(theta, law, t_end=0.25)
+        print(f"incline theta {theta:4.1f} mu {law.mu:.2f} {law.kind:12s}: a = {a:.5f} m/s^2, exact {exact:.5f}")
+        assert a == pytest.approx(exact, rel=0.02, abs=0.01 * G * np.sin(th))
+    both = {}
+    for contact in (True, False):
+        rows, gap, e0 = _disks(contact=contact, t_end=4.0)
+        both[contact] = rows
+        t, dist, energy = rows[:, 0], rows[:, 1], rows[:, 2]
+        print(f"disks contact={contact}: min centre distance {dist.min():.4f} m at t = {t[np.argmin(dist)]:.2f} s, "
+              f"final {dist[-1]:.4f} m, energy final/initial {energy[-1] / e0:.4f}, min {energy.min() / e0:.4f}, "
+              f"max {energy.max() / e0:.4f}, final gap {gap:.4f} m, max |momentum| {np.abs(rows[:, 3:]).max():.1e}")  # fmt: skip
+    out = _figure_dir()
+    if out is not None:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(1, 2, figsize=(10, 3.6))
+        for contact, label in ((True, "frictionless contact (2 fields)"), (False, "one field (bonded)")):
+            r = both[contact]
+            ax[0].plot(r[:, 0], r[:, 2] / r[0, 2], label=label)
+            ax[1].plot(r[:, 0], r[:, 1], label=label)
+        ax[0].set(xlabel="t [s]", ylabel="(kinetic + strain energy) / initial", title="Sulsky disks: energy")
+        ax[1].set(xlabel="t [s]", ylabel="centre distance [m]", title="Sulsky disks: centre distance")
+        ax[1].axhline(0.4, color="grey", lw=0.5)
+        ax[0].legend()
+        fig.tight_layout()
+        fig.savefig(out / "contact_disks.png", dpi=110)
