@@ -225,16 +225,16 @@ def test_disks_rebound_and_separate_with_frictionless_contact():
 
 
 # ------------------------------------------------------------------------------ flat punch
-def test_rigid_flat_punch_presses_and_releases_the_block():
-    """Quarter model (symmetry planes x = 0, z = 0; slip base y = 0) of a 40 x 20 x 40 mm block
-    under a frictionless rigid punch larger than its top: uniaxial stress, so the punch force at
-    1 % compression is E A delta / H (E = 9 K G / (3 K + G)); within 5 % (the loading is slow
-    against the wave transit, 20 ms vs 1.8 ms, and GIMP places the contact face within a
-    fraction of a cell). On withdrawal the block separates: the force returns to zero and the
-    top surface comes back to within 2 % of the compression."""
-    h, sp = 0.0025, 0.00125
-    Hb, half = 0.02, 0.02
-    grid = Grid(origin=(0, 0, 0), cell_size=h, shape=(12, 12, 12))
+def _punch(h: float, t_ramp: float = 0.02):
+    """Quarter model (symmetry planes x = 0, z = 0; slip base y = 0) of a 40 x 20 x 40 mm
+    neo-Hookean block (C10 10 kPa, K 100 kPa) under a frictionless rigid punch larger than its top,
+    pressed 1 % in ``t_ramp``, held ``t_ramp``, raised back to its start in ``t_ramp`` (slowly, so the
+    block is not launched off its base), raised at 40 times that speed for ``t_ramp`` (to 40 delta =
+    8 mm above its start, more than two cells: clear of the block's nodes), then held for ``t_ramp``. Returns (time, punch force) rows, the block's top-row height history, its
+    initial value, and the uniaxial-stress force E A delta / H with E = 9 K G / (3 K + G)."""
+    sp, Hb, half = h / 2, 0.02, 0.02
+    n = int(round(0.03 / h))
+    grid = Grid(origin=(0, 0, 0), cell_size=h, shape=(n, 2 * n, n))
     blk = lattice((0, 0, 0), (half, Hb, half), sp)
     punch = lattice((0, Hb, 0), (0.025, Hb + 2 * h, 0.025), sp)
     which = np.r_[np.zeros(len(blk), int), np.ones(len(punch), int)]
@@ -245,33 +245,47 @@ def test_rigid_flat_punch_presses_and_releases_the_block():
     pd = ParticleData(x=np.vstack([blk, punch]), volume=sp**3, size=sp, material=which, field=which)
     solver = ExplicitSolver(model, SolverConfig(threads=2, cfl=0.4))
     st = solver.initial_state(pd)
-    delta, t_ramp, speed = 0.01 * Hb, 0.02, 0.01 * Hb / 0.02
+    delta = 0.01 * Hb
+    speed = delta / t_ramp
 
-    def punch_velocity(time: float) -> float:  # down for t_ramp, hold t_ramp, up for 2 t_ramp
+    def punch_velocity(time: float) -> float:
         if time < t_ramp:
             return -speed
         if time < 2 * t_ramp:
             return 0.0
-        return speed if time < 4 * t_ramp else 0.0
+        if time < 3 * t_ramp:
+            return speed
+        return 40 * speed if time < 4 * t_ramp else 0.0
 
     G0, K0 = 2 * law.C10, law.K
     E = 9 * K0 * G0 / (3 * K0 + G0)
-    expected = E * half * half * delta / Hb
-    mat = st.material.numpy()
+    top_row = np.flatnonzero(np.isclose(blk[:, 1], blk[:, 1].max()))
     forces, tops = [], []
     while st.time < 5 * t_ramp:
         dt = solver.stable_dt(st)
         solver.step(st, dt, Control(rigid_velocity={1: (0.0, punch_velocity(st.time + dt / 2), 0.0)}))
-        forces.append((st.time, solver.diagnostics(st)["reaction"][1][1]))
-        top = st.x.numpy()[(mat == 0)][:, 1].max()
-        tops.append(top)
-    f = np.array(forces)
+        order = np.argsort(st.id.numpy())  # storage -> original order
+        forces.append((st.time, st.reaction.numpy()[order][len(blk) :, 1].sum()))  # on the punch
+        tops.append(st.x.numpy()[order][top_row, 1].mean())
+    return np.array(forces), np.array(tops), blk[top_row, 1].mean(), E * half * half * delta / Hb
+
+
+def test_rigid_flat_punch_presses_and_releases_the_block():
+    """Held force against uniaxial stress E A delta / H: MPM contact acts at nodes, and once the
+    punch's GIMP domain enters the block's top cell the punch moves both nodes of that cell, so
+    the block is compressed over H - h: the force lies between E A delta / H and
+    E A delta / (H - h) (+5 % for the dynamics of the 20 ms ramp; the slow test halves h and the
+    excess halves). On withdrawal the block separates: no force once the punch is clear, and the
+    top row back within 10 % of the compression of its start."""
+    h = 0.0025
+    f, tops, top0, expected = _punch(h)
+    t_ramp = 0.02
     hold = (f[:, 0] > 1.25 * t_ramp) & (f[:, 0] < 2 * t_ramp)
-    assert f[hold, 1].mean() == pytest.approx(expected, rel=0.05)
+    held = f[hold, 1].mean()
+    assert expected < held < 1.05 * expected * 0.02 / (0.02 - h)
     late = f[:, 0] > 4.5 * t_ramp
-    assert np.abs(f[late, 1]).max() < 0.02 * expected  # separated: no force
-    top0 = Hb - sp / 2  # the top particle row
-    assert abs(tops[-1] - top0) < 0.02 * delta + 0.1 * delta  # recovered (elastic oscillation allowed)
+    assert np.abs(f[late, 1]).max() == 0.0
+    assert abs(tops[late].mean() - top0) < 0.1 * 0.01 * 0.02
 
 
 # ------------------------------------------------------------------------------ full versions (docs/verification.md)
@@ -320,3 +334,10 @@ def test_contact_verification_full():
         ax[0].legend()
         fig.tight_layout()
         fig.savefig(out / "contact_disks.png", dpi=110)
+    for h in (0.0025, 0.00125):
+        f, tops, top0, expected = _punch(h)
+        hold = (f[:, 0] > 0.025) & (f[:, 0] < 0.04)
+        late = f[:, 0] > 0.09
+        print(f"punch h = {h * 1e3:.3f} mm: held force {f[hold, 1].mean():.4f} N, E A delta / H {expected:.4f} N "
+              f"({f[hold, 1].mean() / expected - 1:+.3f}), E A delta / (H - h) {expected * 0.02 / (0.02 - h):.4f} N; "
+              f"after withdrawal max |force| {np.abs(f[late, 1]).max():.2e} N, top row {(tops[late].mean() - top0) * 1e6:+.2f} um")
