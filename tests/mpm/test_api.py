@@ -244,3 +244,33 @@ def test_control_gravity_and_multi_material():
     d = st.to_numpy()
     assert np.all(np.isfinite(d["stress"]))
     assert d["v"][:, 2].mean() < 0
+
+
+def test_completely_failed_particle_may_invert_without_stopping_the_run():
+    """Seed 000 slab: a completely failed particle carries no stress (and has no wave speed), so
+    J <= 0 of such a particle is counted (diagnostics ``inverted``), not an instability; the same
+    inverted F on an intact particle stops the run."""
+    from tissuempm.materials import TwoSurfaceFailure, Weiss
+    from tissuempm.mpm.state import State
+
+    law = TwoSurfaceFailure(base=Weiss.example(), gamma_max=0.25, eps_max=0.4)
+    grid = Grid(origin=(0, 0, 0), cell_size=0.01, shape=(8, 8, 8))
+    solver = ExplicitSolver(Model(grid=grid, materials=[law]), SolverConfig(threads=1))
+    pd = block((0.02, 0.02, 0.02), (0.06, 0.06, 0.06), 0.005, velocity=(0.01, 0, 0))
+    inverted = np.diag([1.0, 1.0, -0.5])
+
+    def state_with(failure_code: float) -> State:
+        data = solver.initial_state(pd).to_numpy()
+        data["F"][0] = inverted
+        data["state"][0, 0] = failure_code
+        return State.from_numpy(solver, data)
+
+    st = state_with(3.0)  # both constituents failed
+    for _ in range(3):
+        solver.step(st)
+    assert solver.diagnostics(st)["inverted"] == 1
+    assert np.all(st.to_numpy()["stress"][0] == 0.0)
+    with pytest.raises(InstabilityError):
+        st = state_with(0.0)  # intact
+        for _ in range(3):
+            solver.step(st)
