@@ -6,6 +6,8 @@ from mpm_testlib import block
 
 from tissuempm.materials import NeoHookean
 from tissuempm.mpm import (
+    Contact,
+    ContactLaw,
     Control,
     ExplicitSolver,
     Grid,
@@ -92,12 +94,23 @@ def test_restart_is_bit_identical_and_sorting_tracks_ids(shape):
     np.testing.assert_allclose(da["x0"], small_block().x)
 
 
-def test_chunked_threads_are_deterministic():
-    """Same chunk count: identical results for 1 and 2 threads (fixed reduction order)."""
+def colliding_halves():
+    """The small block cut at x = 0.04 into two velocity fields pressed together (frictional
+    contact), for the multi-field variants of the code-path tests."""
     pd = small_block()
+    pd.field = (pd.x[:, 0] > 0.04).astype(np.int32)
+    pd.velocity[:, 0] = np.where(pd.field == 0, 0.5, -0.5)
+    return pd, {"contact": Contact(2, {(0, 1): ContactLaw("friction", 0.3)})}
+
+
+@pytest.mark.parametrize("contact", [False, True], ids=["one_field", "contact"])
+def test_chunked_threads_are_deterministic(contact):
+    """Same chunk count: identical results for 1 and 2 threads (fixed reduction order; the contact
+    pass owns one node per thread)."""
+    pd, kw = colliding_halves() if contact else (small_block(), {})
     out = []
     for threads in (1, 2):
-        s = ExplicitSolver(small_model(), SolverConfig(threads=threads, chunks=3))
+        s = ExplicitSolver(small_model(**kw), SolverConfig(threads=threads, chunks=3))
         st = s.initial_state(pd)
         for _ in range(10):
             s.step(st)
@@ -106,17 +119,20 @@ def test_chunked_threads_are_deterministic():
         assert np.array_equal(out[0][key], out[1][key]), key
 
 
+@pytest.mark.parametrize("contact", [False, True], ids=["one_field", "contact"])
 @pytest.mark.parametrize("transfer", ["usl", "musl", "usf"])
-def test_device_code_path_on_the_cpu_matches_the_chunked_path(transfer):
-    """The GPU path (one chunk, no scatter window, whole-grid reduction, per-chunk arrays copied from
-    the device instead of viewed) run with the CPU's kernels gives the chunked CPU path's results bit
-    for bit (1 chunk: the same sums in the same order); only the atomic adds differ on a GPU."""
-    model = small_model(boundaries=[GridBoundary(2, "lower", "fixed")])
+def test_device_code_path_on_the_cpu_matches_the_chunked_path(transfer, contact):
+    """The GPU path (one chunk, no scatter window, whole-grid reduction and contact pass, per-chunk
+    arrays copied from the device instead of viewed) run with the CPU's kernels gives the chunked CPU
+    path's results bit for bit (1 chunk: the same sums in the same order); only the atomic adds
+    differ on a GPU."""
+    pd, kw = colliding_halves() if contact else (small_block(), {})
+    model = small_model(boundaries=[GridBoundary(2, "lower", "fixed")], **kw)
     out = []
     for device_path in (False, True):
         s = ExplicitSolver(model, SolverConfig(threads=1, transfer=transfer, gravity=(0, 0, -9.81)))
         s.is_cpu = not device_path
-        st = s.initial_state(small_block())
+        st = s.initial_state(pd)
         for _ in range(10):
             s.step(st)
         out.append((st.to_numpy(), s.diagnostics(st)))
