@@ -6,7 +6,7 @@ centroid in the last frame (the initial mass-weighted mean velocity direction wh
 
 Coordinates: the axial coordinate of a point ``x`` is ``s = (x - o) . n``; its in-plane coordinates are
 ``(u, v) = ((x - o) . e1, (x - o) . e2)`` with ``e1`` the global axis most perpendicular to ``n``
-(smallest ``|n . e_k|``, the first one on a tie), projected on the plane normal to ``n`` and normalised,
+(smallest ``|n . e_k|``, the first one on a tie, components within 1e-6 tied), projected on the plane normal to ``n`` and normalised,
 and ``e2 = n x e1`` (so ``(e1, e2, n)`` is right-handed). For a shot along +y: ``e1 = x``, ``e2 = -z``.
 """
 
@@ -17,9 +17,17 @@ import numpy as np
 from tissuempm.analysis.errors import AnalysisError
 
 
+TIE = 1e-6
+"""Axis components closer than this to the smallest one are a tie for the choice of ``e1``."""
+
+
 def plane_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """In-plane basis ``(e1, e2)`` of the plane normal to the unit vector ``axis`` (module docstring)."""
-    k = int(np.argmin(np.abs(axis)))
+    """In-plane basis ``(e1, e2)`` of the plane normal to the unit vector ``axis`` (module docstring).
+
+    Components within ``TIE`` of the smallest count as tied, so that round-off in a shot along a
+    grid axis (|n_x| ~ |n_z| ~ 1e-15) does not swap the basis between runs."""
+    mag = np.abs(axis)
+    k = int(np.flatnonzero(mag <= mag.min() + TIE)[0])
     e1 = np.eye(3)[k] - axis[k] * axis
     e1 /= np.linalg.norm(e1)
     return e1, np.cross(axis, e1)
