@@ -26,7 +26,7 @@ every node where two fields ``a`` and ``b`` both have mass:
    conserving momentum.
 
 A rigid body (or a field held by fixed particles) has infinite mass: only the other field is
-corrected, and the impulse ``J / dt`` is added to the rigid field's reaction force, so rigid
+corrected, and the impulse it receives, divided by dt, is added to the rigid field's reaction force, so rigid
 indenters and projectiles slide on and separate from tissue and report their contact force.
 
 Conservation: the sum of m_f v_f over the fields of a node is unchanged by every pair
@@ -47,8 +47,7 @@ from typing import Any, Literal
 import numpy as np
 import warp as wp
 
-from tissuempm.mpm.kernels import UPDATE, boundary_function, node_indices
-from tissuempm.mpm.model import GHOST
+from tissuempm.mpm.kernels import UPDATE, boundary_function, node_indices, node_strides, vec4_helpers
 from tissuempm.precision import WarpTypes, kernel
 
 ContactKind = Literal["bonded", "frictionless", "friction"]
@@ -191,6 +190,8 @@ def contact_kernel(t: WarpTypes, mode: int, NF: int) -> Any:
     and adds rigid reactions; :data:`~tissuempm.mpm.kernels.VELOCITY`: corrects ``v_vel``)."""
     s, vec3, vec4 = t.scalar, t.vec3, t.vec4
     apply_bc = boundary_function(t)
+    v4 = vec4_helpers(t)
+    pack, head = v4.pack, v4.head
 
     @wp.func
     def record_mass(g_mm: wp.array(dtype=vec4), g_c: wp.array(dtype=vec4), r: int, r_lo: int, r_hi: int):
@@ -215,6 +216,37 @@ def contact_kernel(t: WarpTypes, mode: int, NF: int) -> Any:
                     wk = s(2 - (k - 1) * (k - 1))
                     g += m * vec3(s(i - 1) * wj * wk, wi * s(j - 1) * wk, wi * wj * s(k - 1))
         return g
+
+    @wp.func
+    def take_impulse(
+        r: int,
+        v: vec3,
+        J: vec3,
+        m: s,
+        constrained: bool,
+        v_vel: wp.array(dtype=vec4),
+        v_inc: wp.array(dtype=vec4),
+        react: wp.array(dtype=vec4),
+        inv_dt: s,
+        ijk: wp.vec3i,
+        dims: wp.vec3i,
+        n_bc: int,
+        bc_kind: wp.array(dtype=wp.int32),
+        bc_vel: wp.array(dtype=vec3),
+    ):
+        """Record ``r`` (velocity ``v``, mass ``m``) receives the impulse ``J``: its velocity (with the
+        grid-face conditions again) and FLIP increment change by J/m, or, when it is constrained
+        (rigid or fixed), its reaction force (the force the rest exerts on it) by J/dt."""
+        if constrained:
+            if wp.static(mode == UPDATE):
+                react[r] = react[r] + inv_dt * pack(J, s(0.0))
+        else:
+            nv = v + J / m
+            if n_bc > 0:
+                nv = apply_bc(nv, ijk, dims, bc_kind, bc_vel)
+            v_vel[r] = pack(nv, s(0.0))
+            if wp.static(mode == UPDATE):
+                v_inc[r] = v_inc[r] + pack(nv - v, s(0.0))
 
     @kernel
     def contact(
@@ -242,8 +274,7 @@ def contact_kernel(t: WarpTypes, mode: int, NF: int) -> Any:
                 present += 1
         if present < 2:
             return
-        sy = dims[2] + 1 + 2 * GHOST  # node strides
-        sx = (dims[1] + 1 + 2 * GHOST) * sy
+        sx, sy = node_strides(dims)
         ijk = wp.vec3i()
         if n_bc > 0:
             ijk = node_indices(n, dims)
@@ -268,8 +299,8 @@ def contact_kernel(t: WarpTypes, mode: int, NF: int) -> Any:
                 if ln <= s(0.0):
                     continue
                 nrm = nrm / ln
-                va = vec3(v_vel[ra][0], v_vel[ra][1], v_vel[ra][2])
-                vb = vec3(v_vel[rb][0], v_vel[rb][1], v_vel[rb][2])
+                va = head(v_vel[ra])
+                vb = head(v_vel[rb])
                 dv = va - vb
                 dvn = wp.dot(dv, nrm)
                 if dvn <= s(0.0):
@@ -292,27 +323,7 @@ def contact_kernel(t: WarpTypes, mode: int, NF: int) -> Any:
                     if mu * dvn < lt:
                         scale = mu * dvn / lt
                     J = J + (mred * scale) * dvt
-                if ca:
-                    if wp.static(mode == UPDATE):
-                        react[ra] = react[ra] - inv_dt * vec4(J[0], J[1], J[2], s(0.0))
-                else:
-                    nva = va - J / ma
-                    if n_bc > 0:
-                        nva = apply_bc(nva, ijk, dims, bc_kind, bc_vel)
-                    d = nva - va
-                    v_vel[ra] = vec4(nva[0], nva[1], nva[2], s(0.0))
-                    if wp.static(mode == UPDATE):
-                        v_inc[ra] = v_inc[ra] + vec4(d[0], d[1], d[2], s(0.0))
-                if cb:
-                    if wp.static(mode == UPDATE):
-                        react[rb] = react[rb] + inv_dt * vec4(J[0], J[1], J[2], s(0.0))
-                else:
-                    nvb = vb + J / mb
-                    if n_bc > 0:
-                        nvb = apply_bc(nvb, ijk, dims, bc_kind, bc_vel)
-                    d = nvb - vb
-                    v_vel[rb] = vec4(nvb[0], nvb[1], nvb[2], s(0.0))
-                    if wp.static(mode == UPDATE):
-                        v_inc[rb] = v_inc[rb] + vec4(d[0], d[1], d[2], s(0.0))
+                take_impulse(ra, va, -J, ma, ca, v_vel, v_inc, react, inv_dt, ijk, dims, n_bc, bc_kind, bc_vel)
+                take_impulse(rb, vb, J, mb, cb, v_vel, v_inc, react, inv_dt, ijk, dims, n_bc, bc_kind, bc_vel)
 
     return contact

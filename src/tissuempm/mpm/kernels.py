@@ -63,6 +63,20 @@ BC_SLIP = wp.constant(2)
 BC_VELOCITY = wp.constant(3)
 
 
+@wp.func
+def node_strides(dims: wp.vec3i):
+    """Flat-index strides ``(sx, sy)`` of the x and y node axes (z stride 1) of a grid of ``dims`` cells."""
+    sy = dims[2] + 1 + 2 * GHOST
+    return (dims[1] + 1 + 2 * GHOST) * sy, sy
+
+
+@wp.func
+def node_indices(n: int, dims: wp.vec3i):
+    """Grid indices (i, j, k) (ghosts negative or > n) of flat node index ``n``."""
+    sx, sy = node_strides(dims)
+    return wp.vec3i(n // sx - GHOST, (n % sx) // sy - GHOST, n % sy - GHOST)
+
+
 @functools.cache
 def transfer_kernels(t: WarpTypes, shape: str, n_fields: int = 1) -> SimpleNamespace:
     """Particle-grid transfer and grid kernels for types ``t``, ``shape`` and ``n_fields``
@@ -114,8 +128,7 @@ def _helpers(t: WarpTypes, shape: str, NF: int) -> SimpleNamespace:
         bx = wp.clamp(bx, -G, dims[0] + G + 1 - NP) + G
         by = wp.clamp(by, -G, dims[1] + G + 1 - NP) + G
         bz = wp.clamp(bz, -G, dims[2] + G + 1 - NP) + G
-        sy = dims[2] + 1 + 2 * G
-        sx = (dims[1] + 1 + 2 * G) * sy
+        sx, sy = node_strides(dims)
         nb = (bx * sx + by * sy + bz) * NF + f
         return nb, sx * NF, sy * NF, wx, wy, wz, dx * inv_h, dy * inv_h, dz * inv_h
 
@@ -131,7 +144,7 @@ def _helpers(t: WarpTypes, shape: str, NF: int) -> SimpleNamespace:
 
 
 @functools.cache
-def _vec4_helpers(t: WarpTypes) -> SimpleNamespace:
+def vec4_helpers(t: WarpTypes) -> SimpleNamespace:
     s, vec3, vec4 = t.scalar, t.vec3, t.vec4
 
     @wp.func
@@ -152,7 +165,7 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
     s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
     h = _helpers(t, shape, NF)
     stencil, field_of, NP = h.stencil, h.field_of, h.NP
-    pack = _vec4_helpers(t).pack
+    pack = vec4_helpers(t).pack
 
     @kernel
     def p2g(
@@ -279,18 +292,10 @@ def boundary_function(t: WarpTypes) -> Any:
     return apply_bc
 
 
-@wp.func
-def node_indices(n: int, dims: wp.vec3i):
-    """Grid indices (i, j, k) (ghosts negative or > n) of flat node index ``n``."""
-    NZ = dims[2] + 1 + 2 * GHOST
-    NY = dims[1] + 1 + 2 * GHOST
-    return wp.vec3i(n // (NY * NZ) - GHOST, (n // NZ) % NY - GHOST, n % NZ - GHOST)
-
-
 @functools.cache
 def _grid(t: WarpTypes, flags: int, mode: int, NF: int) -> Any:
     s, vec3, vec4 = t.scalar, t.vec3, t.vec4
-    v4 = _vec4_helpers(t)
+    v4 = vec4_helpers(t)
     pack, head = v4.pack, v4.head
     apply_bc = boundary_function(t)
 
@@ -399,7 +404,7 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
     s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
     h = _helpers(t, shape, NF)
     stencil, field_of, NP = h.stencil, h.field_of, h.NP
-    v4 = _vec4_helpers(t)
+    v4 = vec4_helpers(t)
     pack, head = v4.pack, v4.head
 
     @kernel
@@ -536,7 +541,7 @@ def _reaction(t: WarpTypes, shape: str, NF: int) -> Any:
     s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
     h = _helpers(t, shape, NF)
     stencil, field_of, NP = h.stencil, h.field_of, h.NP
-    head = _vec4_helpers(t).head
+    head = vec4_helpers(t).head
 
     @kernel
     def reaction(

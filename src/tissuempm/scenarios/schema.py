@@ -534,10 +534,7 @@ class Scenario(Section):
                 raise ValueError(f"contact[{i}].bodies: a second law for the pair {c.bodies}")
             pairs.add(frozenset(c.bodies))
         if self.contacts:
-            try:
-                self.contact_fields()
-            except ValueError as e:
-                raise ValueError(str(e)) from None
+            self.contact_fields()  # raises naming the bodies when the pairs contradict each other
         seen = set()
         for i, bc in enumerate(self.boundaries):
             if (bc.axis, bc.side) in seen:
