@@ -25,6 +25,7 @@ Transfer = Literal["usl", "musl", "usf"]
 re-projected before the stress update; Sulsky et al. 1994) or update stress first."""
 SHAPES: tuple[str, ...] = ("linear", "gimp", "cpgimp", "bspline")
 TRANSFERS: tuple[str, ...] = ("usl", "musl", "usf")
+GRIDS: tuple[str, ...] = ("reset", "no_reset")
 DEVICES: tuple[str, ...] = ("cpu", "cuda")
 
 
@@ -75,6 +76,14 @@ class SolverConfig:
         Particles are sorted by cell every this many steps (0: never) for memory locality.
     min_node_mass_fraction
         Nodes whose mass is below this fraction of the smallest particle mass are treated as empty.
+    grid
+        ``"reset"`` (default: the grid is reset every step, updated-Lagrangian MPM) or
+        ``"no_reset"`` (the grid moves with the material between resets, total-Lagrangian;
+        :mod:`tissuempm.mpm.reference_grid`).
+    reset_distance
+        With ``grid="no_reset"``: reset once a particle has moved this many cells (``None``: never).
+    reset_interval
+        With ``grid="no_reset"``: reset every this many steps (``None``: never).
     """
 
     shape: ShapeFunction = "gimp"
@@ -91,6 +100,9 @@ class SolverConfig:
     dt_min_fraction: float = 1.0e-4
     sort_interval: int = 20
     min_node_mass_fraction: float = 1.0e-9
+    grid: str = "reset"
+    reset_distance: float | None = None
+    reset_interval: int | None = None
 
     def __post_init__(self) -> None:
         if self.shape not in SHAPES:
@@ -119,6 +131,12 @@ class SolverConfig:
             raise ValueError(f"sort_interval = {self.sort_interval!r}: must be an integer >= 0")
         if not (0.0 <= self.min_node_mass_fraction < 1.0):
             raise ValueError(f"min_node_mass_fraction = {self.min_node_mass_fraction!r}: valid range is [0, 1)")
+        if self.grid not in GRIDS:
+            raise ValueError(f"grid = {self.grid!r} is not valid: choose one of {', '.join(GRIDS)}")
+        if self.reset_distance is not None and not (math.isfinite(self.reset_distance) and self.reset_distance > 0.0):
+            raise ValueError(f"reset_distance = {self.reset_distance!r}: must be > 0 cells or None")
+        if self.reset_interval is not None and (not isinstance(self.reset_interval, int) or self.reset_interval < 1):
+            raise ValueError(f"reset_interval = {self.reset_interval!r}: must be an integer >= 1 or None")
 
     @property
     def n_threads(self) -> int:

@@ -53,6 +53,10 @@ REPROJECT = wp.constant(16)
 """Gather with MOVE: scatter the new particle record (m_p v_p, m_p) at the old position into the
 chunk's (m v, m) buffer in the same pass (MUSL re-projection; the grid pass before left the
 buffer zeroed, and the stencils are those of this step's P2G, inside the chunk's window)."""
+REFERENCE = wp.constant(32)
+"""Gather with GRADIENT on a grid that is not reset (:mod:`tissuempm.mpm.reference_grid`): ``x``
+holds the particles' positions at the last reset, the stencil's gradients are reference
+gradients, and F <- F + dt (sum v_i (x) grad_ref S) F_ref (total-Lagrangian update)."""
 SLOT = 16
 """Elements between two chunks' entries of the per-chunk arrays (window bounds, first bad
 particle, signal speed): chunks update them from parallel threads, one cache line each."""
@@ -413,6 +417,7 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
         v: wp.array(dtype=vec3),
         vpic_p: wp.array(dtype=vec3),
         F: wp.array(dtype=mat33),
+        F_ref: wp.array(dtype=mat33),
         L: wp.array(dtype=mat33),
         stress: wp.array(dtype=mat33),
         size: wp.array(dtype=vec3),
@@ -444,7 +449,10 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
                   v_pic = sum S v_i^new (``reaction`` gives the constrained particles' reaction share).
         GRADIENT: L_p = sum v_i (x) grad S (v_i = ``v_grad``), F <- (I + dt L) F, check J > 0 for
                   particles that carry stress (a completely failed, stress-free particle may invert:
-                  it is counted, not an instability).
+                  it is counted, not an instability). With REFERENCE the gradients are those of the
+                  reference configuration (``x`` = positions at the last reset, deformation
+                  ``F_ref`` there): F <- F + dt L_0 F_ref with L_0 = sum v_i (x) grad_0 S, and
+                  L_p = L_0 F_ref F^-1 (``F_ref`` is not read otherwise).
         Every sum runs over the particle's own velocity field (``field``).
         POSITION: x <- x + dt v_pic, check that the particle is inside the grid.
         REPROJECT (with MOVE): b_mm_i += S (m_p v_p, m_p) (MUSL), so the re-projection costs no second stencil.
@@ -516,8 +524,15 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
                 Lp = wp.matrix_from_cols(head(c0), head(c1), head(c2))  # L = sum v_i (x) grad S_i
                 if rigid:
                     Lp = mat33()
+                Fo = F[p]
+                Fn = Fo
+                if wp.static(flags & REFERENCE):
+                    dF = Lp * F_ref[p]  # dF/dt = sum v_i (x) grad_0 S_i F_ref
+                    Fn = Fo + dt * dF
+                    Lp = dF * wp.inverse(Fo)
+                else:
+                    Fn = (wp.identity(n=3, dtype=s) + dt * Lp) * Fo
                 L[p] = Lp
-                Fn = (wp.identity(n=3, dtype=s) + dt * Lp) * F[p]
                 F[p] = Fn
                 if not (wp.determinant(Fn) > s(0.0)):
                     sp = stress[p]

@@ -45,8 +45,9 @@ from tissuempm.mpm.contact import contact_kernel
 from tissuempm.mpm.errors import InstabilityError
 from tissuempm.mpm.launch import Launcher
 from tissuempm.mpm.model import Model, ParticleData, RigidMaterial
+from tissuempm.mpm.reference_grid import ReferenceGrid, check_no_reset
 from tissuempm.mpm.shape_functions import GIMP_SHAPES
-from tissuempm.mpm.state import PARTICLE_FIELDS, State, warp_array
+from tissuempm.mpm.state import OPTIONAL_FIELDS, PARTICLE_FIELDS, State, warp_array
 from tissuempm.precision import init_warp, warp_types
 
 MIN_CHUNK = 4096
@@ -77,6 +78,12 @@ class ExplicitSolver:
             raise RuntimeError(f"device = {cfg.device!r}: CUDA is not available")
         self.threads = cfg.n_threads if self.is_cpu else 1
         self.n_fields = model.n_fields
+        self.reference: ReferenceGrid | None = None
+        self.extra_fields: tuple[str, ...] = ()
+        if cfg.grid == "no_reset":
+            check_no_reset(cfg.shape, self.n_fields)
+            self.reference = ReferenceGrid(self.t, self.device, model.grid.cell_size, cfg.reset_distance, cfg.reset_interval)
+            self.extra_fields = ("xref", "Fref")
         self.kern = K.transfer_kernels(self.t, cfg.shape, self.n_fields)
         grid = model.grid
         self.h = grid.cell_size
@@ -203,7 +210,14 @@ class ExplicitSolver:
 
     def _allocate_state(self, arrays: dict[str, np.ndarray]) -> State:
         st = State()
-        for name, (kind, _) in PARTICLE_FIELDS.items():
+        defaults = {"xref": "x", "Fref": "F"}  # a grid reset now; acceleration 0
+        for name in self.extra_fields:
+            if name not in arrays:
+                src = defaults.get(name)
+                arrays[name] = np.array(arrays[src]) if src else np.zeros_like(np.asarray(arrays["v"], dtype=float))
+        st.extra = self.extra_fields
+        for name in st.fields:
+            kind = PARTICLE_FIELDS[name][0] if name in PARTICLE_FIELDS else OPTIONAL_FIELDS[name][0]
             setattr(st, name, warp_array(arrays[name], kind, self.t, self.device))
         hist = np.asarray(arrays["state"], dtype=float).reshape(st.n, -1)
         if hist.shape[1] != self.model.n_state:
@@ -358,6 +372,8 @@ class ExplicitSolver:
         p2g = self._ready(kern.p2g(flags))
         common = [self.origin, self.t.scalar(1.0 / self.h), self.dims]
         window = int(self.is_cpu)
+        xs = self._stencil_positions(st)
+        stress = self.reference.force_stress(st) if self.reference is not None and flags & K.FORCE else st.stress
 
         def task(c: int, b: int, e: int) -> Callable[[], None]:
             def run() -> None:
@@ -367,7 +383,7 @@ class ExplicitSolver:
                 self._launch(
                     p2g,
                     e - b,
-                    [st.x, st.v, st.mass, st.volume0, st.size, st.F, st.stress, st.material, st.field, st.fixed,
+                    [xs, st.v, st.mass, st.volume0, st.size, st.F, stress, st.material, st.field, st.fixed,
                      self.mat_rigid, self.rigid_vel, body, *common, b, slot, window, st.lo, st.hi, *self._rows[c]],
                     c,
                 )  # fmt: skip
@@ -422,13 +438,25 @@ class ExplicitSolver:
         ]  # fmt: skip
         self._split(start // nf, (stop - 1) // nf + 1, lambda a, b: self._launch(kernel, b - a, [a, *args], ("contact", a)))
 
+    def _stencil_positions(self, st: State) -> wp.array:
+        """Positions at which the shape functions are evaluated: the current ones, or the last
+        reset's on a grid that is not reset."""
+        return st.xref if self.reference is not None else st.x
+
     def _gather(self, st: State, flags: int, dt: float, v_grad: wp.array) -> list[Callable[[], None]]:
         """Per chunk: G2P of the parts ``flags`` (MOVE, GRADIENT, POSITION; MOVE | REPROJECT also
-        scatters the new momentum into the chunk's buffer)."""
+        scatters the new momentum into the chunk's buffer). On a grid that is not reset the
+        stencils sit at the reference positions, so POSITION (which moves ``x``) is a pass of its own."""
         s = self.t.scalar
         if flags & K.MOVE and flags & K.GRADIENT and v_grad is self.g_vnew:
             flags |= K.SHARED
-        g2p = self._ready(self.kern.g2p(flags))
+        xs = self._stencil_positions(st)
+        passes = [flags]
+        if self.reference is not None:
+            stencil_flags = flags & ~K.POSITION
+            stencil_flags |= K.REFERENCE if flags & K.GRADIENT else 0
+            passes = [f for f in (stencil_flags, flags & K.POSITION) if f]
+        kernels = [(self._ready(self.kern.g2p(f)), xs if f & (K.MOVE | K.GRADIENT) else st.x) for f in passes]
         reaction = flags & K.MOVE and st.constrained
 
         def task(c: int, b: int, e: int) -> Callable[[], None]:
@@ -437,19 +465,21 @@ class ExplicitSolver:
                     self._launch(
                         self.kern.reaction,
                         e - b,
-                        [st.x, st.mass, st.size, st.F, st.material, st.field, st.fixed, self.mat_rigid, self.g_react, self.g_c,
+                        [xs, st.mass, st.size, st.F, st.material, st.field, st.fixed, self.mat_rigid, self.g_react, self.g_c,
                          self.origin, s(1.0 / self.h), self.dims, b, st.reaction],
                         c,
                     )  # fmt: skip
-                self._launch(
-                    g2p,
-                    e - b,
-                    [st.x, st.v, st.vpic, st.F, st.L, st.stress, st.size, st.material, st.field, st.fixed, self.mat_rigid,
-                     self.rigid_vel, self.g_vinc, self.g_vnew, v_grad, st.mass, self._rows[c][0], self.origin,
-                     s(1.0 / self.h), self.dims, self.lower, self.upper, b, c * K.SLOT, s(dt), s(self.config.flip),
-                     st.bad],
-                    c,
-                )  # fmt: skip
+                F_ref = st.Fref if self.reference is not None else st.F
+                for g2p, x in kernels:
+                    self._launch(
+                        g2p,
+                        e - b,
+                        [x, st.v, st.vpic, st.F, F_ref, st.L, st.stress, st.size, st.material, st.field, st.fixed,
+                         self.mat_rigid, self.rigid_vel, self.g_vinc, self.g_vnew, v_grad, st.mass, self._rows[c][0],
+                         self.origin, s(1.0 / self.h), self.dims, self.lower, self.upper, b, c * K.SLOT, s(dt),
+                         s(self.config.flip), st.bad],
+                        c,
+                    )  # fmt: skip
 
             return run
 
@@ -546,6 +576,8 @@ class ExplicitSolver:
         st.time += dt
         st.step += 1
         st.speed_step = st.step if speeds_current else None
+        if self.reference is not None:
+            self.reference.after_step(st)
         # sorted between steps, so arrays a caller sees (and Control arrays in storage order) stay aligned
         if cfg.sort_interval and st.step % cfg.sort_interval == 0:
             self._sort(st)

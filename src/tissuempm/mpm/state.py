@@ -42,6 +42,16 @@ PARTICLE_FIELDS: dict[str, tuple[str, tuple[int, ...]]] = {
 }
 """Particle arrays of a :class:`State` (all in storage order)."""
 RESTART_FIELDS: tuple[str, ...] = tuple(PARTICLE_FIELDS) + ("state",)
+OPTIONAL_FIELDS: dict[str, tuple[str, tuple[int, ...]]] = {
+    "xref": ("vec3", (3,)),
+    "Fref": ("mat33", (3, 3)),
+    "acc": ("vec3", (3,)),
+}
+"""Particle arrays that only some solvers carry (allocated when the solver lists them in
+``extra_fields``): ``xref`` and ``Fref``, the positions [m] and deformation gradient at the last
+grid reset of a grid that is not reset every step (:mod:`tissuempm.mpm.reference_grid`), and
+``acc``, the particle acceleration [m/s^2] of the implicit Newmark integrator
+(:mod:`tissuempm.mpm.implicit`). They travel through sorting, :meth:`State.to_numpy` and restarts."""
 
 
 class State:
@@ -90,17 +100,24 @@ class State:
         self.constrained = False
         self.speed_step: int | None = None
         self.host: dict[str, np.ndarray] | None = None
+        self.extra: tuple[str, ...] = ()  # names of the OPTIONAL_FIELDS this state carries
 
     @property
     def n(self) -> int:
         """Number of particles."""
         return self.x.shape[0]
 
+    @property
+    def fields(self) -> tuple[str, ...]:
+        """Names of the particle arrays this state carries (:data:`PARTICLE_FIELDS` and its extras)."""
+        return tuple(PARTICLE_FIELDS) + self.extra
+
     # ----------------------------------------------------------------------------------------- numpy
     def to_numpy(self, materials: list[Any] | None = None) -> dict[str, Any]:
         """All particle data in original particle order, plus derived fields.
 
-        Keys: every entry of :data:`PARTICLE_FIELDS`, ``state`` (n, n_state_max), ``J`` (n,),
+        Keys: every entry of :data:`PARTICLE_FIELDS` and of the state's :data:`OPTIONAL_FIELDS`,
+        ``state`` (n, n_state_max), ``J`` (n,),
         ``failure`` (n,) int (0 intact, 1 matrix, 2 fiber, 3 both; -1 where the law has no
         failure variable), ``order`` (ids in storage order), and scalars ``time``, ``step``,
         ``dt_ref`` (NaN if not yet set). ``materials`` defaults to the solver's.
@@ -109,7 +126,7 @@ class State:
         ids = self.id.numpy()
         inv = np.argsort(ids, kind="stable")
         out: dict[str, Any] = {}
-        for name in PARTICLE_FIELDS:
+        for name in self.fields:
             out[name] = np.array(getattr(self, name).numpy()[inv])
         out["material"] = out["material"].astype(np.int32)
         out["fixed"] = out["fixed"].astype(bool)
@@ -135,7 +152,9 @@ class State:
 
         ``data`` must hold every key of :data:`RESTART_FIELDS` (``x0``, ``work``, ``reaction``,
         ``vpic``, ``L``, ``id`` and ``field`` may be omitted: they default to ``x``, 0, 0, 0, 0,
-        0..n-1 and 0), and may hold ``order``, ``time``, ``step`` and ``dt_ref``.
+        0..n-1 and 0), and may hold ``order``, ``time``, ``step``, ``dt_ref`` and the
+        :data:`OPTIONAL_FIELDS` the solver needs (without them the solver's defaults apply: a grid
+        reset at the restart, zero acceleration).
         """
         n = np.asarray(data["x"]).shape[0]
         defaults = {
@@ -148,7 +167,7 @@ class State:
             "field": lambda: np.zeros(n, dtype=np.int32),
         }
         arrays: dict[str, np.ndarray] = {}
-        for name in RESTART_FIELDS:
+        for name in RESTART_FIELDS + tuple(k for k in OPTIONAL_FIELDS if k in data):
             if name in data:
                 arrays[name] = np.asarray(data[name])
             elif name in defaults:
@@ -174,7 +193,7 @@ class State:
         dev = self.x.device
         p = wp.array(np.asarray(perm, dtype=np.int64), dtype=wp.int64, device=dev)
         scratch: dict[Any, wp.array] = {}
-        for name in PARTICLE_FIELDS:
+        for name in self.fields:
             a = getattr(self, name)
             tmp = scratch.get(a.dtype)
             if tmp is None:  # one scratch array per dtype, shared by the fields of that type

@@ -1,0 +1,364 @@
+"""Implicit MPM (Guilkey & Weiss 2003; Ionescu et al. 2006, eq. 12): Newton-Raphson on the grid.
+
+One step of size dt from the particle state at t_n:
+
+1. P2G: nodal mass m_i, velocity v_i, acceleration a_i (particle accelerations, ``State.acc``),
+   body force m_i g + sum S m_p b_p, and the constraints (rigid and fixed particles, grid faces:
+   the same rules as the explicit solver) as prescribed nodal displacements u_i = dt v_c.
+2. The grid moves with the nodal displacement u; the stencils stay those of the start of the
+   step, so with ``F_inc = I + sum u_i (x) grad_n S_i`` every particle has ``F = F_inc F_n`` and the
+   current gradients ``grad S = F_inc^-T grad_n S``. Newmark (beta 1/4, gamma 1/2) on the grid::
+
+       a_i' = 4/dt^2 (u_i - dt v_i) - a_i,        v_i' = v_i + dt/2 (a_i + a_i')
+
+   Residual and Newton iteration on the free degrees of freedom::
+
+       R(u) = f_ext - f_int(u) - M a'(u),   f_int,i = sum_p V_p sigma_p grad S_ip
+       (K + 4/dt^2 M) du = R,   u <- u + du
+
+   with the consistent tangent K_ab = sum_p V_p [(grad S_a)_j c_ijkl (grad S_b)_l
+   + (grad S_a . sigma grad S_b) delta_ik] (c from each law's ``tangent_function``; Bonet & Wood
+   2008, eq. 9.35). ``dynamic=False`` is the quasi-static form (no inertia: R = f_ext - f_int).
+3. Converged when ``|R| <= tol max(|f_int|, |f_ext|, |M a'|)`` and ``|du| <= tol |u|``;
+   then x_p += sum S u_i, v_p by FLIP/PIC of the nodal velocities, a_p = sum S a_i', F, sigma and
+   the history from the last iteration.
+
+A step that does not converge in ``max_iterations`` (or makes a particle invert) is retried with
+half the step; the next step tries twice the last successful one, up to ``dt``. Below ``dt_min``
+the run stops with an :class:`InstabilityError` that names the time, the iteration's residual
+and the node with the largest residual.
+
+The linear systems are assembled into 3 x 3 blocks by a Warp kernel and solved with SciPy's
+sparse direct solver (SuperLU) by default: at the sizes of the seed's tests (up to ~2e4
+unknowns) the factorisation is faster than preconditioned CG and needs no tolerance; ``"cg"``
+(Jacobi-preconditioned conjugate gradients, ``scipy.sparse.linalg.cg``) uses less memory for
+large 3-D grids (docs/mpm.md, "Implicit integration", has the measurements).
+"""
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+import warp as wp
+
+from tissuempm.mpm.config import Control, SolverConfig
+from tissuempm.mpm.errors import InstabilityError
+from tissuempm.mpm.implicit_kernels import implicit_kernels
+from tissuempm.mpm.model import Model
+from tissuempm.mpm.solver import ExplicitSolver
+from tissuempm.mpm.state import State
+
+LINEAR_SOLVERS: tuple[str, ...] = ("direct", "cg")
+
+
+@dataclass(frozen=True, kw_only=True)
+class ImplicitConfig:
+    """Options of the implicit integrator (SI units).
+
+    Attributes
+    ----------
+    dt
+        Time step [s] (the largest; halved on non-convergence and grown back by doubling).
+    dynamic
+        Newmark (beta 1/4, gamma 1/2) with inertia (default) or quasi-static (no inertia).
+    tolerance
+        Relative tolerance of the residual and of the displacement correction.
+    max_iterations
+        Newton iterations before the step is halved.
+    dt_min
+        Smallest step [s] before the run stops (default dt / 1024).
+    linear_solver
+        ``"direct"`` (SuperLU, default) or ``"cg"`` (Jacobi-preconditioned CG).
+    """
+
+    dt: float
+    dynamic: bool = True
+    tolerance: float = 1.0e-6
+    max_iterations: int = 25
+    dt_min: float | None = None
+    linear_solver: str = "direct"
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.dt) and self.dt > 0.0):
+            raise ValueError(f"implicit dt = {self.dt!r}: must be > 0 s")
+        if not (0.0 < self.tolerance < 1.0):
+            raise ValueError(f"implicit tolerance = {self.tolerance!r}: valid range is (0, 1)")
+        if not isinstance(self.max_iterations, int) or self.max_iterations < 1:
+            raise ValueError(f"implicit max_iterations = {self.max_iterations!r}: must be an integer >= 1")
+        if self.dt_min is not None and not (0.0 < self.dt_min <= self.dt):
+            raise ValueError(f"implicit dt_min = {self.dt_min!r}: valid range is (0, dt = {self.dt:g}] s")
+        if self.linear_solver not in LINEAR_SOLVERS:
+            raise ValueError(f"linear_solver = {self.linear_solver!r} is not valid: choose one of {', '.join(LINEAR_SOLVERS)}")
+
+    @property
+    def smallest_dt(self) -> float:
+        """dt_min, or dt / 1024."""
+        return self.dt_min if self.dt_min is not None else self.dt / 1024.0
+
+
+class NotConverged(Exception):
+    """One Newton solve failed (the step is retried with half the step)."""
+
+    def __init__(self, message: str, position: np.ndarray | None = None):
+        super().__init__(message)
+        self.position = position
+
+
+class ImplicitSolver(ExplicitSolver):
+    """Implicit MPM integrator of a :class:`Model` (see the module docstring).
+
+    Shares the explicit solver's model, boundary conditions, rigid drivers, controls (load
+    curves), state layout, diagnostics and checkpoints; only :meth:`step` differs.
+
+    Example
+    -------
+    >>> solver = ImplicitSolver(model, SolverConfig(shape="gimp"), ImplicitConfig(dt=1e-3))  # doctest: +SKIP
+    >>> state = solver.initial_state(particles)                                           # doctest: +SKIP
+    >>> solver.run(state, t_end=0.1)                                                      # doctest: +SKIP
+    """
+
+    def __init__(self, model: Model, config: SolverConfig | None = None, implicit: ImplicitConfig | None = None):
+        super().__init__(model, config)
+        if implicit is None:
+            raise ValueError("ImplicitSolver needs an ImplicitConfig (at least its time step dt)")
+        if self.n_fields > 1:
+            raise ValueError("contact between bodies is not available with the implicit integrator: use 'explicit'")
+        if self.reference is not None:
+            raise ValueError("grid = 'no_reset' is available with the explicit integrator only")
+        self.implicit = implicit
+        self.extra_fields = ("acc",)
+        self.ik = implicit_kernels(self.t, self.config.shape)
+        self._updates = [(i, prm, self.ik.update(type(m))) for i, m, _, prm in self.laws]
+        n, dev, t = self.n_nodes, self.device, self.t
+        zs = lambda: wp.zeros(n, dtype=t.scalar, device=dev)  # noqa: E731
+        zv = lambda: wp.zeros(n, dtype=t.vec3, device=dev)  # noqa: E731
+        self.n_m, self.n_cm = zs(), zs()
+        self.n_mv, self.n_ma, self.n_fb, self.n_cmv = zv(), zv(), zv(), zv()
+        self.n_v, self.n_a, self.n_free, self.n_vc = zv(), zv(), zv(), zv()
+        self.n_u, self.n_fint, self.n_dv, self.n_vnew, self.n_anew = zv(), zv(), zv(), zv(), zv()
+        self.Kb = wp.zeros((n, self.ik.NB**3), dtype=t.mat33, device=dev)
+        _, ny, nz = model.grid.node_shape
+        sx, sy = ny * nz, nz
+        NP, NB = self.ik.NP, self.ik.NB
+        d = np.arange(NB) - (NP - 1)
+        self._offsets = (d[:, None, None] * sx + d[None, :, None] * sy + d[None, None, :]).ravel()
+        self._dt_next = implicit.dt
+        self.last_iterations = 0
+        self.iterations = 0  # total Newton iterations
+        self.retries = 0  # halved steps
+
+    # ------------------------------------------------------------------------------ time step
+    def stable_dt(self, state: State) -> float:
+        """The step the implicit integrator tries next [s] (no CFL limit)."""
+        dt = self._dt_next
+        if self.config.dt_max is not None:
+            dt = min(dt, self.config.dt_max)
+        return dt
+
+    def step(self, state: State, dt: float | None = None, control: Control | None = None) -> float:
+        """Advance ``state`` by one converged implicit step; returns the step taken [s] (``dt``
+        or, after halvings, less)."""
+        st = state
+        self._apply_control(control)
+        h = dt if dt is not None else self.stable_dt(st)
+        while True:
+            try:
+                self._solve(st, h)
+                break
+            except NotConverged as err:
+                self.retries += 1
+                if h / 2 < self.implicit.smallest_dt:
+                    raise InstabilityError(
+                        f"implicit step did not converge at t = {st.time:.6g} s with dt = {h:.3e} s "
+                        f"(smallest allowed {self.implicit.smallest_dt:.3e} s): {err}",
+                        position=err.position,
+                        reason="no convergence",
+                    ) from None
+                h /= 2
+        st.time += h
+        st.step += 1
+        st.speed_step = None
+        self._dt_next = min(2 * h, self.implicit.dt)
+        if self.config.sort_interval and st.step % self.config.sort_interval == 0:
+            self._sort(st)
+        return h
+
+    # ------------------------------------------------------------------------------ pieces
+    def _nodal(self, st: State) -> dict[str, np.ndarray]:
+        """P2G and the nodal pass; NumPy copies (views on the CPU) of the nodal fields."""
+        s = self.t.scalar
+        for a in (self.n_m, self.n_cm, self.n_mv, self.n_ma, self.n_fb, self.n_cmv):
+            a.zero_()
+        body = self._body if self._body is not None else st.vpic
+        common = [self.origin, s(1.0 / self.h), self.dims]
+        wp.launch(self.ik.p2g, dim=st.n, device=self.device, inputs=[
+            st.x, st.v, st.acc, st.mass, st.size, st.F, st.material, st.fixed, self.mat_rigid, self.rigid_vel,
+            body, int(self._body is not None), *common, self.n_m, self.n_mv, self.n_ma, self.n_fb, self.n_cm, self.n_cmv])  # fmt: skip
+        wp.launch(self.ik.nodes, dim=self.n_nodes, device=self.device, inputs=[
+            self.n_m, self.n_mv, self.n_ma, self.n_cm, self.n_cmv, s(st.min_node_mass), self.dims,
+            len(self._bc_face), self.bc_kind, self.bc_vel, self.n_v, self.n_a, self.n_free, self.n_vc])  # fmt: skip
+        return {k: getattr(self, "n_" + k).numpy().astype(float) for k in ("m", "v", "a", "fb", "free", "vc", "cm", "cmv")}
+
+    def _residual_parts(self, st: State, u: np.ndarray, dt: float, stiffness: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        """Particle update at nodal displacement ``u`` and the assembly: (f_int, K blocks)."""
+        s = self.t.scalar
+        self.n_u.assign(u.astype(self.t.numpy))
+        self._fill(st, "bad", st.n)
+        common = [self.origin, s(1.0 / self.h), self.dims]
+        for i, prm, kern in self._updates:
+            wp.launch(kern, dim=st.n, device=self.device, inputs=[
+                i, prm, st.x, st.size, st.F, self.n_u, st.material, st.fiber, st.history, st.history_next, *common,
+                s(dt), self._F, self._L, self._sig, self._c, st.bad])  # fmt: skip
+        bad = int(self._slots(st, "bad").min())
+        if bad < st.n:
+            x = st.x.numpy()[bad].astype(float)
+            raise NotConverged(f"particle {int(st.id.numpy()[bad])} at {x.tolist()} inverted or its stress is not finite", x)
+        self.n_fint.zero_()
+        if stiffness:
+            self.Kb.zero_()
+        wp.launch(self.ik.assemble, dim=st.n, device=self.device, inputs=[
+            st.x, st.size, st.F, self._F, self._sig, self._c, st.volume0, st.material, self.mat_rigid, *common,
+            int(stiffness), self.n_fint, self.Kb])  # fmt: skip
+        f_int = self.n_fint.numpy().astype(float)
+        return f_int, (self.Kb.numpy().astype(float) if stiffness else None)
+
+    def _matrix(self, blocks: np.ndarray, act: np.ndarray, idx: np.ndarray) -> sp.csr_matrix:
+        """Global stiffness of the active nodes from the per-node blocks (BSR, then CSR)."""
+        nbr = act[:, None] + self._offsets[None, :]
+        ok = (nbr >= 0) & (nbr < self.n_nodes)
+        ok[ok] = idx[nbr[ok]] >= 0
+        data = blocks[act][ok]
+        indptr = np.concatenate([[0], np.cumsum(ok.sum(axis=1))])
+        na = act.size
+        K = sp.bsr_matrix((data, idx[nbr[ok]], indptr), shape=(3 * na, 3 * na))
+        return K.tocsr()
+
+    def _linear_solve(self, K: sp.csr_matrix, r: np.ndarray) -> np.ndarray:
+        if self.implicit.linear_solver == "cg":
+            d = K.diagonal()
+            M = sp.diags(1.0 / np.where(d > 0, d, 1.0))
+            x, info = spla.cg(K, r, rtol=1e-10, maxiter=20 * K.shape[0], M=M)
+            if info != 0:
+                raise NotConverged(f"CG did not converge (info {info})")
+            return x
+        x = spla.spsolve(K.tocsc(), r)
+        if not np.all(np.isfinite(x)):
+            raise NotConverged("singular stiffness matrix")
+        return x
+
+    def _solve(self, st: State, dt: float) -> None:
+        """One implicit step of size ``dt`` (raises :class:`NotConverged`)."""
+        cfg = self.implicit
+        nd = self._nodal(st)
+        m = nd["m"]
+        n = self.n_nodes
+        act = np.flatnonzero(m > st.min_node_mass)
+        idx = np.full(n, -1, dtype=np.int64)
+        idx[act] = np.arange(act.size)
+        free = nd["free"][act].astype(bool).ravel()  # active dofs, node-major
+        g = np.array([self._gravity[0], self._gravity[1], self._gravity[2]], dtype=float)
+        f_ext = (m[:, None] * g + nd["fb"])[act].ravel()
+        v0, a0 = nd["v"][act].ravel(), nd["a"][act].ravel()
+        mdof = np.repeat(m[act], 3)
+        u = np.zeros((n, 3))
+        ua = (dt * v0 + (0.5 * dt * dt * a0 if cfg.dynamic else 0.0))  # predictor
+        ua = np.where(free, ua, dt * nd["vc"][act].ravel())
+        self._scratch(st)
+        norm_f = 0.0
+        for it in range(1, cfg.max_iterations + 1):
+            u[act] = ua.reshape(-1, 3)
+            f_int, blocks = self._residual_parts(st, u, dt, stiffness=True)
+            fi = f_int[act].ravel()
+            a_new = 4.0 / dt**2 * (ua - dt * v0) - a0 if cfg.dynamic else np.zeros_like(ua)
+            inertia = mdof * a_new
+            R = f_ext - fi - inertia
+            norm_f = max(np.linalg.norm(fi), np.linalg.norm(f_ext), np.linalg.norm(inertia), 1e-300)
+            r_free = R[free]
+            K = self._matrix(blocks, act, idx)[free][:, free]
+            diag = 4.0 / dt**2 * mdof[free] if cfg.dynamic else 1e-9 * np.abs(K.diagonal()).max() * np.ones(r_free.size)
+            du = self._linear_solve((K + sp.diags(diag)).tocsr(), r_free)
+            ua[free] += du
+            self.iterations += 1
+            r_rel = np.linalg.norm(r_free) / norm_f
+            if r_rel <= cfg.tolerance and np.linalg.norm(du) <= cfg.tolerance * max(np.linalg.norm(ua[free]), 1e-300):
+                break
+            if not np.all(np.isfinite(ua)):
+                raise NotConverged(f"Newton iteration {it} diverged")
+        else:
+            worst = int(np.argmax(np.abs(R) * np.where(free, 1.0, 0.0))) // 3
+            node = act[worst]
+            raise NotConverged(
+                f"Newton did not converge in {cfg.max_iterations} iterations (residual {r_rel:.2e} of the force scale, "
+                f"largest at grid node {node})",
+                self._node_position(node),
+            )
+        self.last_iterations = it
+        # accept: the final state at the converged u (stress, history, F) and the nodal kinematics
+        u[act] = ua.reshape(-1, 3)
+        f_int, _ = self._residual_parts(st, u, dt, stiffness=False)
+        fi = f_int[act].ravel()
+        if cfg.dynamic:
+            a_new = 4.0 / dt**2 * (ua - dt * v0) - a0
+            v_new = v0 + 0.5 * dt * (a0 + a_new)
+        else:
+            a_new = np.zeros_like(ua)
+            v_new = ua / dt
+        self._accept(st, dt, act, u, v_new, a_new, v0, f_ext - fi - mdof * a_new, nd)
+
+    def _scratch(self, st: State) -> None:
+        if getattr(self, "_F", None) is None or self._F.shape[0] != st.n:
+            from tissuempm.materials.kinematics import mat66
+
+            self._F, self._L, self._sig = (wp.zeros(st.n, dtype=self.t.mat33, device=self.device) for _ in range(3))
+            self._c = wp.zeros(st.n, dtype=mat66(self.t), device=self.device)
+
+    def _node_position(self, node: int) -> np.ndarray:
+        """Position [m] of flat node index ``node``."""
+        return self.model.grid.node_positions().reshape(-1, 3)[node]
+
+    def _accept(self, st: State, dt: float, act: np.ndarray, u: np.ndarray, v_new: np.ndarray, a_new: np.ndarray,
+                v0: np.ndarray, reaction: np.ndarray, nd: dict[str, np.ndarray]) -> None:  # fmt: skip
+        """Particle update of a converged step, reactions on the constraints, history swap."""
+        s = self.t.scalar
+        n = self.n_nodes
+        full = lambda a: np.zeros((n, 3)) if a is None else a  # noqa: E731
+        dv, vn, an = full(None), full(None), full(None)
+        dv[act] = (v_new - v0).reshape(-1, 3)
+        vn[act] = v_new.reshape(-1, 3)
+        an[act] = a_new.reshape(-1, 3)
+        for arr, val in ((self.n_u, u), (self.n_dv, dv), (self.n_vnew, vn), (self.n_anew, an)):
+            arr.assign(val.astype(self.t.numpy))
+        if st.constrained:  # reaction shares of rigid and fixed particles (explicit rules), at x_n
+            R = np.zeros((n, 4))
+            R[act, :3] = reaction.reshape(-1, 3)
+            cm = np.zeros((n, 4))
+            cm[:, :3], cm[:, 3] = nd["cmv"], nd["cm"]
+            self.g_react.assign(R.astype(self.t.numpy))
+            self.g_c.assign(cm.astype(self.t.numpy))
+            wp.launch(self.kern.reaction, dim=st.n, device=self.device, inputs=[
+                st.x, st.mass, st.size, st.F, st.material, st.field, st.fixed, self.mat_rigid, self.g_react, self.g_c,
+                self.origin, s(1.0 / self.h), self.dims, 0, st.reaction])  # fmt: skip
+        self._fill(st, "bad", st.n)
+        wp.launch(self.ik.finish, dim=st.n, device=self.device, inputs=[
+            st.x, st.v, st.acc, st.vpic, st.size, st.F, st.material, st.fixed, self.mat_rigid, self.rigid_vel,
+            self.n_u, self.n_dv, self.n_vnew, self.n_anew, self.origin, s(1.0 / self.h), self.dims, s(dt),
+            s(self.config.flip), self.lower, self.upper, st.bad, st.stress, self._sig, self._L, self._F,
+            st.volume0, st.work])  # fmt: skip
+        wp.copy(st.F, self._F)
+        wp.copy(st.L, self._L)
+        wp.copy(st.stress, self._sig)
+        st.history, st.history_next = st.history_next, st.history
+        self._check(st)
+
+    def diagnostics(self, state: State) -> dict[str, Any]:
+        """The explicit solver's diagnostics plus ``newton_iterations`` (total), ``last_iterations``
+        and ``halved_steps``."""
+        out = super().diagnostics(state)
+        out.update(newton_iterations=self.iterations, last_iterations=self.last_iterations, halved_steps=self.retries)
+        return out
+
+
+__all__ = ["ImplicitConfig", "ImplicitSolver", "LINEAR_SOLVERS"]
