@@ -97,8 +97,9 @@ def test_isotropic_dispersion_ignores_fiber_direction():
         np.array([[0.8, -0.1, 0.1], [0.2, 1.1, 0.0], [0.05, 0.1, 1.05]]),
     ],
 )
-def test_stress_is_derivative_of_energy_off_axis_fiber(F):
-    m = HGO(**{**ARTERY_LIKE, "K": 1.0e6})
+@pytest.mark.parametrize("form", ["isochoric", "full"])
+def test_stress_is_derivative_of_energy_off_axis_fiber(F, form):
+    m = HGO(**{**ARTERY_LIKE, "K": 1.0e6}, fiber_kinematics=form)
     a0 = np.array([1.0, 1.0, 0.5]) / 1.5
     h = 1e-6
     dW = np.zeros((3, 3))
@@ -161,6 +162,7 @@ def test_wave_moduli_grow_with_fiber_stretch():
         ({"C10": 0.0}, "C10"),
         ({"K": float("inf")}, "K"),
         ({"volumetric": "bad"}, "volumetric"),
+        ({"fiber_kinematics": "I4"}, "fiber_kinematics"),
     ],
 )
 def test_parameter_errors_name_the_parameter(kwargs, name):
@@ -182,3 +184,34 @@ def test_float32_agrees_with_float64():
     for fiber in ((1.0, 0.0, 0.0), a0):
         s64, s32 = cauchy(m, F, fiber), cauchy(m, F, fiber, "float32")
         assert np.max(np.abs(s32 - s64)) <= 1e-4 * np.max(np.abs(s64))
+
+
+def test_full_fiber_form_incompressible_limit_and_dilatation():
+    """Both fiber forms give the same incompressible uniaxial curve (J -> 1: I4b = I4, I1b = I1); under a
+    pure dilatation F = s I only the full form stretches the fibers: E = (3 kappa + 1 - 3 kappa)(s^2 - 1),
+    sigma - U'(J) I = (2/J) psi'(E) s^2 (kappa I + (1 - 3 kappa) a0 (x) a0)."""
+    m = HGO(**ARTERY_LIKE, fiber_kinematics="full")
+    P = stress_strain(m, "uniaxial", STRETCH).nominal_axial
+    np.testing.assert_allclose(P, uniaxial_fiber_along_axis(m.C10, m.k1, m.k2, m.kappa, STRETCH), rtol=5e-3)
+    sc = 1.05
+    J = sc**3
+    E = sc * sc - 1.0
+    dpsi = m.k1 * E * np.exp(m.k2 * E * E)
+    a0 = np.array([1.0, 0.0, 0.0])
+    expect = m.pressure_term(J) * np.eye(3) + 2.0 / J * dpsi * sc * sc * (
+        m.kappa * np.eye(3) + (1.0 - 3.0 * m.kappa) * np.outer(a0, a0)
+    )
+    np.testing.assert_allclose(cauchy(m, sc * np.eye(3))[0], expect, rtol=1e-12)
+    iso = m.replace(fiber_kinematics="isochoric")
+    np.testing.assert_allclose(cauchy(iso, sc * np.eye(3))[0], iso.pressure_term(J) * np.eye(3), rtol=1e-12)
+
+
+def test_export_refuses_a_full_fiber_hgo():
+    """Abaqus, LS-DYNA and FEBio cards all mean the isochoric form: a "full" HGO is not exported."""
+    from tissuempm.calibration.export import abaqus_cards, febio_xml, lsdyna_cards
+
+    m = HGO(**ARTERY_LIKE, fiber_kinematics="full")
+    for write in (abaqus_cards, lsdyna_cards, febio_xml):
+        with pytest.raises(ValueError, match="fiber_kinematics"):
+            write(m)
+    assert "HOLZAPFEL" in abaqus_cards(m.replace(fiber_kinematics="isochoric"))

@@ -12,6 +12,7 @@ import functools
 import numpy as np
 import pytest
 import warp as wp
+from scipy.optimize import brentq
 
 from tissuempm.materials import NeoHookean, ParameterError, Weiss, from_dict
 from tissuempm.materials.drivers import PointEvaluator, stress_strain
@@ -20,7 +21,7 @@ from tissuempm.precision import warp_types
 KINEMATICS = ("isochoric", "full")
 
 
-def stiff(kin: str = "isochoric") -> Weiss:
+def stiff(kin: str = "full") -> Weiss:
     """Myocardium parameters of seed 000, made practically incompressible."""
     return Weiss.example().replace(K=1.0e9, fiber_kinematics=kin)
 
@@ -50,6 +51,47 @@ def test_uniaxial_across_fiber_matches_incompressible_closed_form(kin):
     np.testing.assert_allclose(r.F[:, 1, 1], l2, rtol=1e-3)
     np.testing.assert_allclose(r.F[:, 2, 2], l3, rtol=1e-3)
     assert np.all(l2[lam < 1.0] < l3[lam < 1.0]) and np.all(l2[lam < 1.0] >= 1.0)
+
+
+def _compressible_transverse(m: Weiss, lam: float) -> float:
+    """sigma11 of uniaxial tension across the fiber, compressible, "log" volume term (independent closed form).
+
+    F = diag(lam, l, l) with the fiber along e2 shortened (l < 1, T = 0 for either fiber form), so
+    only the neo-Hookean matrix (C2 = 0) and U = K/2 (ln J)^2 act, J = lam l^2. sigma22 = 0 reads
+    2 C1 J^(-2/3) (l^2 - lam^2)/3 + K ln J = 0 (solved for l); then
+    sigma11 = sigma11 - sigma22 = 2 C1 J^(-5/3) (lam^2 - l^2)."""
+
+    def s22(l: float) -> float:
+        J = lam * l * l
+        return 2.0 * m.C1 * J ** (-2.0 / 3.0) * (l * l - lam * lam) / 3.0 + m.K * np.log(J)
+
+    l = brentq(s22, 0.5 * lam**-0.5, 1.0, xtol=1e-15)
+    J = lam * l * l
+    return 2.0 * m.C1 * J ** (-5.0 / 3.0) * (lam * lam - l * l)
+
+
+def test_single_particle_deviation_from_incompressible_at_seed_bulk_modulus():
+    """Seed 000's single-particle check at K = 100 kPa (K/G0 = 24): the default (full) fiber
+    form stays within the seed's 3 % of the incompressible curve along the fiber up to lam = 1.5
+    (docs/materials.md table: at most 2.3 %); the isochoric form falls far below it (the fiber
+    stretch is lost to dilatation: > 25 % at lam >= 1.2). Across the fiber the deviation is the
+    matrix's own compressibility, the same for both forms, and the driver agrees with the
+    independent compressible closed form to the driver's Newton tolerance (1e-9 G0 on the lateral
+    stresses, 1e-6 relative here)."""
+    lam = np.array([1.05, 1.1, 1.2, 1.3, 1.4, 1.5])
+    full = Weiss.example()
+    along = stress_strain(full, "uniaxial", lam).cauchy_axial / full.uniaxial_incompressible(lam) - 1.0
+    assert np.all(np.abs(along) < 0.03)
+    iso = full.replace(fiber_kinematics="isochoric")
+    along_iso = stress_strain(iso, "uniaxial", lam).cauchy_axial / iso.uniaxial_incompressible(lam) - 1.0
+    assert np.all(along_iso[2:] < -0.25)
+    expect = np.array([_compressible_transverse(full, x) for x in lam])
+    for m in (full, iso):
+        r = stress_strain(m, "uniaxial", lam, fiber=(0.0, 1.0, 0.0))
+        np.testing.assert_allclose(r.cauchy_axial, expect, rtol=1e-6)
+    dev = expect / full.uniaxial_incompressible(lam, along_fiber=False) - 1.0
+    # the issue's independent numbers: about 1.7 %, 3.1 %, 4.4 % below at 1.05, 1.3, 1.5
+    np.testing.assert_allclose(dev[[0, 3, 5]], [-0.017, -0.031, -0.044], atol=1.5e-3)
 
 
 def test_along_fiber_stiffer_than_across():
@@ -119,7 +161,8 @@ def test_full_kinematics_sees_dilatation_isochoric_does_not():
     (Sansour 2008; Nolan et al. 2014): sigma - p I = T(J^1/3)/J a (x) a."""
     J = 1.3**3
     F = J ** (1 / 3) * np.eye(3)
-    iso, full = Weiss.example(), Weiss.example().replace(fiber_kinematics="full")
+    iso, full = Weiss.example().replace(fiber_kinematics="isochoric"), Weiss.example()
+    assert full.fiber_kinematics == "full"  # the default
     p = iso.K * np.log(J) / J
     np.testing.assert_allclose(cauchy(iso, F), p * np.eye(3), rtol=1e-12)
     expect = p * np.eye(3)

@@ -36,6 +36,19 @@ Solver-facing interface (all a solver needs to know about a law)
 
     The default returns the header's ``K_wave`` and ``G_wave``, which each law
     sets from :meth:`Material.wave_moduli`.
+``tangent_function(precision)``
+    A ``@wp.func`` for the implicit solver with the stress function's signature::
+
+        tangent(F, L, a0, prm, s_in, s_out, p, dt) -> M66
+
+    returning the spatial elasticity tensor ``c`` [Pa] (Lie derivative of the
+    Kirchhoff stress, ``L_v(tau) = J c : d``) as a 6 x 6 Voigt matrix of plain
+    tensor components, order xx, yy, zz, yz, xz, xy; ``M66 =
+    tissuempm.materials.kinematics.mat66(warp_types(precision))``. ``s_out[p]``
+    may be overwritten (scratch): call the stress function afterwards. The
+    default differentiates the stress function numerically (the algorithmic
+    tangent of history laws); laws with a standard closed form override
+    ``_build_tangent`` (:mod:`tissuempm.materials.tangent`).
 """
 
 
@@ -48,6 +61,7 @@ from typing import Any, ClassVar
 import numpy as np
 import warp as wp
 
+from tissuempm.materials.tangent import numeric_tangent
 from tissuempm.precision import WarpTypes, warp_types
 
 HEADER: tuple[str, ...] = ("density", "K_wave", "G_wave")
@@ -289,8 +303,20 @@ class Material:
         return _cached_build(cls, "_build_moduli", precision)
 
     @classmethod
+    def tangent_function(cls, precision: str = "float64") -> Any:
+        """The law's spatial elasticity tensor ``@wp.func`` for ``precision`` (cached; module docstring)."""
+        return _cached_build(cls, "_build_tangent", precision)
+
+    analytic_tangent: ClassVar[bool] = False
+    """True when :meth:`tangent_function` is a closed form (False: central differences of the stress)."""
+
+    @classmethod
     def _build_stress(cls, t: WarpTypes) -> Any:
         raise NotImplementedError(f"{cls.__name__} has no Warp stress function")
+
+    @classmethod
+    def _build_tangent(cls, t: WarpTypes) -> Any:
+        return numeric_tangent(t, cls.stress_function(t.precision))
 
     @classmethod
     def _build_moduli(cls, t: WarpTypes) -> Any:

@@ -35,6 +35,10 @@ gains bits (matrix = 1, fiber = 2, both = 3); a failed constituent carries no
 stress on later unloading. A failed matrix also loses its pressure (eq. 7),
 including in compression, as in the paper and Uintah.
 
+Tangent (implicit solver): the base's closed-form spatial elasticity tensor
+c = c_vol + c_matrix + c_fiber reduced in the same way (matrix failed: no
+c_matrix and no c_vol; fiber failed: no c_fiber; both: c = 0).
+
 History (per particle): ``failure`` code, ``max_shear_strain`` (largest matrix
 measure reached, in the convention's units) and ``max_fiber_strain``
 (largest lam - 1 reached).
@@ -57,6 +61,7 @@ import numpy as np
 import warp as wp
 
 from tissuempm.materials.base import PRM_OFFSET, Material, ParameterError, StateVar, parameter
+from tissuempm.materials.tangent import rate_tangent
 from tissuempm.materials.weiss import N_LAW, Weiss
 from tissuempm.precision import WarpTypes
 
@@ -269,4 +274,48 @@ class TwoSurfaceFailure(Material):
             return sig
 
         return stress
+
+    analytic_tangent: ClassVar[bool] = True
+
+    @classmethod
+    def _build_tangent(cls, t: WarpTypes) -> Any:
+        """The base's closed-form tangent reduced to the intact constituents, as the stress is:
+        c = c_vol + c_matrix + c_fiber with the matrix and volumetric parts dropped after matrix
+        failure, the fiber part after fiber failure, and c = 0 after total failure. The failure
+        state is the one the stress update reaches at ``F`` (the stored code, or a criterion met
+        at ``F``), so the tangent is that of the stress the solver evaluates next; the switch itself
+        is not differentiated (failure is a discontinuity)."""
+        rate_parts = Weiss._build_rate_parts(t)
+        criteria = cls._build_criteria(t)
+        s = t.scalar
+        mat33 = t.mat33
+
+        @wp.func
+        def rate(
+            F: t.mat33,
+            L: t.mat33,
+            a0: t.vec3,
+            prm: wp.array(dtype=s),
+            s_in: wp.array2d(dtype=s),
+            s_out: wp.array2d(dtype=s),
+            p: int,
+            dt: s,
+            D: t.mat33,
+        ):
+            old = int(s_in[p, 0] + s(0.5))
+            if old == BOTH:
+                return mat33(), mat33()
+            tm, dtm, tf, dtf, tv, dtv, lam = rate_parts(F, a0, prm, D)
+            gam, efib = criteria(F, lam, prm)
+            tau = mat33()
+            dtau = mat33()
+            if not (old == MATRIX or gam > prm[O_GAMMA]):
+                tau = tm + tv
+                dtau = dtm + dtv
+            if not (old == FIBER or efib > prm[O_EPS]):
+                tau = tau + tf
+                dtau = dtau + dtf
+            return tau, dtau
+
+        return rate_tangent(t, rate)
 

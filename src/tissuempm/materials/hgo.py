@@ -12,13 +12,37 @@ U(J) is one of the volumetric forms of
 :mod:`tissuempm.materials.invariant_hyperelastic` (Abaqus' own HGO uses
 (1/D)((J^2 - 1)/2 - ln J), which has the same K0 = 2/D at J = 1).
 
-Cauchy stress, with psi' = k1 <E> exp(k2 <E>^2), W1 = C10 + kappa psi',
-W4 = (1 - 3 kappa) psi' and the isochoric fiber vector ab = J^(-1/3) F a0::
+Fiber kinematics (``fiber_kinematics``), written with the structure tensor
+H = kappa I + (1 - 3 kappa) a0 (x) a0, so E = H : Cb - 1 or H : C - 1:
 
-    sigma = (2/J) dev[W1 Bb + W4 ab (x) ab] + U'(J) I
+* ``"isochoric"`` (default): the invariants of Cb above, the form of Abaqus
+  (``*ANISOTROPIC HYPERELASTIC, HOLZAPFEL``), LS-DYNA (MAT_295) and FEBio, so that
+  the exported cards (:mod:`tissuempm.calibration.export`) mean the same law there.
+* ``"full"`` (Sansour 2008; Helfenstein et al. 2010; Nolan et al. 2014): the fiber
+  term uses the full invariants, E = kappa (I1 - 3) + (1 - 3 kappa)(I4 - 1),
+  I4 = |F a0|^2, while the matrix stays C10 (I1b - 3). A dilatation then stretches
+  the fibers, as for :class:`~tissuempm.materials.weiss.Weiss` (whose default it
+  is). No commercial card expresses it, so the exporter refuses it.
+
+Cauchy stress, with psi' = k1 <E> exp(k2 <E>^2), the spatial structure tensor
+h = kappa Bb + (1 - 3 kappa) ab (x) ab (isochoric, ab = J^(-1/3) F a0) or
+h = kappa B + (1 - 3 kappa) (F a0) (x) (F a0) (full), E = tr h - 1::
+
+    sigma = (2/J) dev[C10 Bb + psi' h] + U'(J) I                (isochoric)
+    sigma = (2/J) dev[C10 Bb] + (2/J) psi' h + U'(J) I          (full)
+
+Spatial elasticity tensor (:mod:`tissuempm.materials.tangent`), from the
+Kirchhoff stress rate under F -> (I + eps d) F (Holzapfel 2000, sec. 6.6), with
+psi'' = k1 (1 + 2 k2 E^2) exp(k2 E^2) for E > 0 (0 otherwise)::
+
+    dh = d h + h d - 2/3 tr(d) h,  dE = tr dh   (isochoric; dh = d h + h d for full)
+    d tau_fiber = 2 dev[psi'' dE h + psi' dh]   (isochoric; without dev for full)
+
+plus the neo-Hookean matrix and volumetric rates of invariant_hyperelastic.py.
 
 Incompressible closed forms with the fiber along the loading axis e1
-(I4 = lam^2; the seed omits the uniaxial formula, this is re-derived)::
+(I4 = lam^2, the same for both fiber forms; the seed omits the uniaxial formula,
+this is re-derived)::
 
     P = 2 W1 (lam - lam^-2) + 2 W4 lam,  I1 = lam^2 + 2/lam           (uniaxial)
     P = 2 W1 (lam - lam^-5) + 2 W4 lam,  I1 = 2 lam^2 + lam^-4        (equibiaxial, e1-e2)
@@ -43,6 +67,7 @@ from tissuempm.materials.base import (
     PRM_G_WAVE,
     PRM_K_WAVE,
     PRM_OFFSET,
+    ParameterError,
     copy_state,
     parameter,
 )
@@ -51,7 +76,8 @@ from tissuempm.materials.invariant_hyperelastic import (
     UncoupledHyperelastic,
     incompressible_invariants,
 )
-from tissuempm.materials.kinematics import kinematics
+from tissuempm.materials.kinematics import FIBER_KINEMATICS, FiberKinematics, kinematics
+from tissuempm.materials.tangent import rate_tangent
 from tissuempm.precision import WarpTypes
 
 _I1_FACTOR = {
@@ -66,7 +92,7 @@ _I1_FACTOR = {
 class HGO(UncoupledHyperelastic):
     """Holzapfel-Gasser-Ogden law, one dispersed fiber family along ``a0`` (module docstring).
 
-    Packed as ``[form, K, C10, k1, k2, kappa]`` after the header.
+    Packed as ``[form, K, C10, k1, k2, kappa, fiber_kinematics code]`` after the header.
     """
 
     kind = "hgo"
@@ -76,6 +102,8 @@ class HGO(UncoupledHyperelastic):
     k1: float = parameter("Pa", default=1.0e4, ge=0.0, doc="fiber stress parameter")
     k2: float = parameter("1", default=1.0, gt=0.0, doc="fiber exponential stiffening parameter")
     kappa: float = parameter("1", default=0.0, ge=0.0, le=1.0 / 3.0, doc="fiber dispersion, 0 aligned to 1/3 isotropic")
+    fiber_kinematics: FiberKinematics = "isochoric"
+    analytic_tangent: ClassVar[bool] = True
 
     @classmethod
     def example(cls) -> "HGO":
@@ -83,6 +111,16 @@ class HGO(UncoupledHyperelastic):
         kappa = 0.333), made nearly incompressible (K = 1000 G0)."""
         c = 7.64e3
         return cls(C10=0.5 * c, k1=996.6e3, k2=524.6, kappa=0.333, K=1000.0 * c, density=1000.0)
+
+    def check(self) -> None:
+        super().check()
+        if self.fiber_kinematics not in FIBER_KINEMATICS:
+            raise ParameterError(
+                f"HGO.fiber_kinematics = {self.fiber_kinematics!r}: valid are {', '.join(FIBER_KINEMATICS)}"
+            )
+
+    def law_parameters(self) -> list[float]:
+        return [*super().law_parameters(), float(FIBER_KINEMATICS.index(self.fiber_kinematics))]
 
     # ------------------------------------------------------------------ NumPy
     def small_strain_moduli(self) -> tuple[float, float]:
@@ -105,15 +143,38 @@ class HGO(UncoupledHyperelastic):
         dpsi = self.k1 * E * np.exp(self.k2 * E**2)
         return self.C10 + self.kappa * dpsi, (1.0 - 3.0 * self.kappa) * dpsi
 
+    def fiber_invariants(self, F: np.ndarray, a0: np.ndarray | None = None) -> tuple[float, float, np.ndarray]:
+        """(I1, I4, b) entering the fiber strain E: those of Cb and ab = J^(-1/3) F a0 ("isochoric") or of
+        C and b = F a0 ("full"); ``a0`` a unit vector, e1 when None."""
+        F = np.asarray(F, dtype=float)
+        a = np.array([1.0, 0.0, 0.0]) if a0 is None else np.asarray(a0, dtype=float)
+        f = float(np.linalg.det(F)) ** (-1.0 / 3.0) if self.fiber_kinematics == "isochoric" else 1.0
+        b = f * F @ a
+        return float(f * f * np.sum(F * F)), float(b @ b), b
+
     def strain_energy(self, F: np.ndarray, a0: np.ndarray | None = None) -> float:
         """W(F) [J/m^3] for the fiber ``a0`` (unit vector; e1 when None)."""
         F = np.asarray(F, dtype=float)
-        a = np.array([1.0, 0.0, 0.0]) if a0 is None else np.asarray(a0, dtype=float)
         J = float(np.linalg.det(F))
-        Bb = J ** (-2.0 / 3.0) * F @ F.T
-        ab = J ** (-1.0 / 3.0) * F @ a
-        W = self.iso_energy(np.trace(Bb), ab @ ab)
+        I1b = J ** (-2.0 / 3.0) * float(np.sum(F * F))
+        I1, I4, _ = self.fiber_invariants(F, a0)
+        E = np.maximum(self.fiber_strain(I1, I4), 0.0)
+        W = self.C10 * (I1b - 3.0) + self.k1 / (2.0 * self.k2) * np.expm1(self.k2 * E**2)
         return float(W + self.volumetric_energy(J))
+
+    def cauchy_stress(self, F: np.ndarray, a0: np.ndarray | None = None) -> np.ndarray:
+        """Cauchy stress [Pa] (NumPy closed form of the module docstring)."""
+        F = np.asarray(F, dtype=float)
+        J = float(np.linalg.det(F))
+        dev = lambda A: A - np.trace(A) / 3.0 * np.eye(3)  # noqa: E731
+        Bb = J ** (-2.0 / 3.0) * F @ F.T
+        I1, I4, b = self.fiber_invariants(F, a0)
+        E = max(float(self.fiber_strain(I1, I4)), 0.0)
+        dpsi = self.k1 * E * np.exp(self.k2 * E * E)
+        iso = self.fiber_kinematics == "isochoric"
+        h = self.kappa * (Bb if iso else F @ F.T) + (1.0 - 3.0 * self.kappa) * np.outer(b, b)
+        tau = 2.0 * self.C10 * dev(Bb) + 2.0 * dpsi * (dev(h) if iso else h)
+        return tau / J + self.pressure_term(J) * np.eye(3)
 
     def nominal_stress_incompressible(self, mode: str, stretch: np.ndarray) -> np.ndarray:
         """Incompressible nominal stress P [Pa] with the fiber along the loading axis e1 (module docstring)."""
@@ -127,7 +188,9 @@ class HGO(UncoupledHyperelastic):
     # ------------------------------------------------------------------ Warp
     @classmethod
     def _build_fiber(cls, t: WarpTypes) -> Any:
-        """``fiber(F, a0, prm) -> (J, Bb, I1b, ab, E, psi', psi'')`` with <E> applied."""
+        """``fiber(F, a0, prm) -> (J, Bb, h, E, psi', psi'')``: h = kappa Bb + (1 - 3 kappa) ab (x) ab
+        (isochoric) or kappa B + (1 - 3 kappa) (F a0) (x) (F a0) (full), E = <tr h - 1>, and
+        psi'' = 0 where the Macaulay bracket is closed (E <= 0)."""
         k = kinematics(t)
         s = t.scalar
         o = LAW_OFFSET
@@ -136,15 +199,18 @@ class HGO(UncoupledHyperelastic):
         def fiber(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s)):
             J = wp.determinant(F)
             Bb, r = k.isochoric_b_root(F, J)
-            I1 = wp.trace(Bb)
-            ab = r * (F * a0)
             kappa = prm[o + 3]
-            E = kappa * (I1 - s(3.0)) + (s(1.0) - s(3.0) * kappa) * (wp.dot(ab, ab) - s(1.0))
-            E = wp.max(E, s(0.0))
+            x = F * a0
+            h = kappa * Bb + (s(1.0) - s(3.0) * kappa) * (r * r) * wp.outer(x, x)
+            if prm[o + 4] > s(0.5):
+                h = h / (r * r)
+            E = wp.trace(h) - s(1.0)
+            if E <= s(0.0):
+                return J, Bb, h, s(0.0), s(0.0), s(0.0)
             k1 = prm[o + 1]
             k2 = prm[o + 2]
             ex = wp.exp(k2 * E * E)
-            return J, Bb, I1, ab, E, k1 * E * ex, k1 * (s(1.0) + s(2.0) * k2 * E * E) * ex
+            return J, Bb, h, E, k1 * E * ex, k1 * (s(1.0) + s(2.0) * k2 * E * E) * ex
 
         return fiber
 
@@ -168,33 +234,69 @@ class HGO(UncoupledHyperelastic):
             p: int,
             dt: s,
         ):
-            J, Bb, I1, ab, E, dpsi, ddpsi = fiber(F, a0, prm)
-            kappa = prm[o + 3]
-            W1 = prm[o] + kappa * dpsi
-            W4 = (s(1.0) - s(3.0) * kappa) * dpsi
+            J, Bb, h, E, dpsi, ddpsi = fiber(F, a0, prm)
             U1 = k.volumetric_dUdJ(J, prm[o_form], prm[o_form + 1])
             copy(s_in, s_out, p, 0, s_in.shape[1])
-            tau = s(2.0) * (W1 * Bb + W4 * wp.outer(ab, ab))
-            return k.dev(tau) / J + U1 * wp.identity(n=3, dtype=s)
+            tau_f = s(2.0) * dpsi * h
+            if prm[o + 4] < s(0.5):
+                tau_f = k.dev(tau_f)
+            return (s(2.0) * prm[o] * k.dev(Bb) + tau_f) / J + U1 * wp.identity(n=3, dtype=s)
 
         return stress
 
     @classmethod
-    def _build_moduli(cls, t: WarpTypes) -> Any:
-        """Wave-speed moduli (K0, G): G = G0 plus an upper estimate of the fiber tangent
-        (4/J) psi'' g^2 + (2/J) psi' g, g = kappa I1b + (1 - 3 kappa) I4b, so the stable time
-        step shrinks as the fibers stiffen exponentially."""
+    def _build_tangent(cls, t: WarpTypes) -> Any:
+        """Closed-form spatial elasticity tensor (module docstring)."""
+        k = kinematics(t)
         fiber = cls._build_fiber(t)
         s = t.scalar
+        o_form = PRM_OFFSET
         o = LAW_OFFSET
+
+        @wp.func
+        def rate(
+            F: t.mat33,
+            L: t.mat33,
+            a0: t.vec3,
+            prm: wp.array(dtype=s),
+            s_in: wp.array2d(dtype=s),
+            s_out: wp.array2d(dtype=s),
+            p: int,
+            dt: s,
+            D: t.mat33,
+        ):
+            J, Bb, h, E, dpsi, ddpsi = fiber(F, a0, prm)
+            z = s(0.0)
+            tau, dtau = k.invariant_kirchhoff_rate(Bb, prm[o], z, z, z, z, D)
+            tv, dtv = k.volumetric_kirchhoff_rate(J, prm[o_form], prm[o_form + 1], D)
+            tau = tau + tv
+            dtau = dtau + dtv
+            dh = D * h + h * D
+            if prm[o + 4] < s(0.5):
+                dh = k.isochoric_rate(h, D)
+                tau = tau + s(2.0) * dpsi * k.dev(h)
+                dtau = dtau + s(2.0) * k.dev(ddpsi * wp.trace(dh) * h + dpsi * dh)
+            else:
+                tau = tau + s(2.0) * dpsi * h
+                dtau = dtau + s(2.0) * (ddpsi * wp.trace(dh) * h + dpsi * dh)
+            return tau, dtau
+
+        return rate_tangent(t, rate)
+
+    @classmethod
+    def _build_moduli(cls, t: WarpTypes) -> Any:
+        """Wave-speed moduli (K0, G): G = G0 plus an upper estimate of the fiber tangent
+        (4/J) psi'' g^2 + (2/J) psi' g, g = tr h = kappa I1 + (1 - 3 kappa) I4 (of the fiber
+        kinematics), so the stable time step shrinks as the fibers stiffen exponentially."""
+        fiber = cls._build_fiber(t)
+        s = t.scalar
 
         @wp.func
         def moduli(
             F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s), s_in: wp.array2d(dtype=s), p: int
         ):
-            J, Bb, I1, ab, E, dpsi, ddpsi = fiber(F, a0, prm)
-            kappa = prm[o + 3]
-            g = kappa * I1 + (s(1.0) - s(3.0) * kappa) * wp.dot(ab, ab)
+            J, Bb, h, E, dpsi, ddpsi = fiber(F, a0, prm)
+            g = wp.trace(h)
             G = prm[PRM_G_WAVE]
             if E > s(0.0):
                 G += (s(4.0) * ddpsi * g * g + s(2.0) * dpsi * g) / J

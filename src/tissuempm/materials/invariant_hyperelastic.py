@@ -20,6 +20,17 @@ Incompressible homogeneous closed forms (nominal stress P along the stretch
 * uniaxial:    P = 2 (lam - lam^-2)(W1 + W2/lam),   I1 = lam^2 + 2/lam,  I2 = 2 lam + lam^-2
 * equibiaxial: P = 2 (lam - lam^-5)(W1 + lam^2 W2), I1 = 2 lam^2 + lam^-4, I2 = lam^4 + 2 lam^-2
 * pure shear:  P = 2 (lam - lam^-3)(W1 + W2),       I1 = I2 = lam^2 + 1 + lam^-2
+
+Spatial elasticity tensor (analytic, :mod:`tissuempm.materials.tangent`): with the
+second derivatives ``Wab = d^2 W / dIa dIb`` of each law, the rate of the Kirchhoff
+stress under ``F -> (I + eps d) F`` is (Holzapfel 2000, sec. 6.6; Bonet & Wood 2008,
+sec. 6.6)::
+
+    dBb = d Bb + Bb d - 2/3 tr(d) Bb,   dI1b = tr dBb,   dI2b = I1b dI1b - Bb : dBb
+    d tau_iso = 2 dev[(dW1 + dI1b W2 + I1b dW2) Bb + (W1 + I1b W2) dBb - dW2 Bb^2 - W2 (dBb Bb + Bb dBb)]
+    d tau_vol = J (U' + J U'') tr(d) I      (K J (2J - 1) "abaqus", K "log")
+
+and ``c : d = (1/J)(d tau - d tau - tau d)``; at F = I, c = K I (x) I + 2 G0 (I_sym - I (x) I / 3).
 """
 
 
@@ -31,6 +42,7 @@ import warp as wp
 
 from tissuempm.materials.base import PRM_OFFSET, Material, ParameterError, copy_state, parameter
 from tissuempm.materials.kinematics import kinematics
+from tissuempm.materials.tangent import rate_tangent
 from tissuempm.precision import WarpTypes
 
 VolumetricForm = Literal["abaqus", "log"]
@@ -92,6 +104,10 @@ class UncoupledHyperelastic(Material):
         """U(J) [J/m^3] of this law's volumetric form."""
         return volumetric_energy(J, self.volumetric, self.K)
 
+    def pressure_term(self, J: float) -> float:
+        """U'(J) [Pa], the volumetric Cauchy stress sigma_vol = U'(J) I (NumPy)."""
+        return self.K * (J - 1.0) if self.volumetric == "abaqus" else self.K * float(np.log(J)) / J
+
 
 @dataclass(frozen=True, kw_only=True)
 class InvariantHyperelastic(UncoupledHyperelastic):
@@ -118,6 +134,11 @@ class InvariantHyperelastic(UncoupledHyperelastic):
         """``@wp.func dW(I1b, I2b, prm, o) -> (W1, W2)``; the law's parameters start at ``prm[o]``."""
         raise NotImplementedError
 
+    @classmethod
+    def _build_second_derivatives(cls, t: WarpTypes) -> Any:
+        """``@wp.func d2W(I1b, I2b, prm, o) -> (W11, W12, W22)`` (second derivatives, for the tangent)."""
+        raise NotImplementedError
+
     def shear_modulus(self) -> float:
         """Initial shear modulus G0 = 2 (W1 + W2) at I1b = I2b = 3 [Pa]."""
         W1, W2 = self.iso_derivatives(np.array(3.0), np.array(3.0))
@@ -130,6 +151,15 @@ class InvariantHyperelastic(UncoupledHyperelastic):
     def strain_energy(self, F: np.ndarray, a0: np.ndarray | None = None) -> float:
         I1, I2, J = isochoric_invariants(np.asarray(F, dtype=float))
         return float(self.iso_energy(np.array(I1), np.array(I2)) + self.volumetric_energy(J))
+
+    def cauchy_stress(self, F: np.ndarray, a0: np.ndarray | None = None) -> np.ndarray:
+        """Cauchy stress [Pa] (NumPy closed form of the module docstring's chain rule)."""
+        F = np.asarray(F, dtype=float)
+        I1, I2, J = isochoric_invariants(F)
+        Bb = J ** (-2.0 / 3.0) * F @ F.T
+        W1, W2 = (float(w) for w in self.iso_derivatives(np.array(I1), np.array(I2)))
+        A = (W1 + I1 * W2) * Bb - W2 * Bb @ Bb
+        return 2.0 / J * (A - np.trace(A) / 3.0 * np.eye(3)) + self.pressure_term(J) * np.eye(3)
 
     def nominal_stress_incompressible(self, mode: str, stretch: np.ndarray) -> np.ndarray:
         """Incompressible nominal stress P [Pa] along the stretch for ``mode`` (module docstring)."""
@@ -170,3 +200,38 @@ class InvariantHyperelastic(UncoupledHyperelastic):
             return k.invariant_cauchy(J, Bb, W1, W2) + U1 * wp.identity(n=3, dtype=s)
 
         return stress
+
+    analytic_tangent: ClassVar[bool] = True
+
+    @classmethod
+    def _build_tangent(cls, t: WarpTypes) -> Any:
+        """Closed-form spatial elasticity tensor (module docstring)."""
+        k = kinematics(t)
+        dW = cls._build_derivatives(t)
+        d2W = cls._build_second_derivatives(t)
+        s = t.scalar
+        o_form = PRM_OFFSET
+        o_law = LAW_OFFSET
+
+        @wp.func
+        def rate(
+            F: t.mat33,
+            L: t.mat33,
+            a0: t.vec3,
+            prm: wp.array(dtype=s),
+            s_in: wp.array2d(dtype=s),
+            s_out: wp.array2d(dtype=s),
+            p: int,
+            dt: s,
+            D: t.mat33,
+        ):
+            J = wp.determinant(F)
+            Bb, r = k.isochoric_b_root(F, J)
+            I1, I2 = k.invariants12(Bb)
+            W1, W2 = dW(I1, I2, prm, o_law)
+            W11, W12, W22 = d2W(I1, I2, prm, o_law)
+            tau, dtau = k.invariant_kirchhoff_rate(Bb, W1, W2, W11, W12, W22, D)
+            tv, dtv = k.volumetric_kirchhoff_rate(J, prm[o_form], prm[o_form + 1], D)
+            return tau + tv, dtau + dtv
+
+        return rate_tangent(t, rate)

@@ -8,10 +8,16 @@ Cauchy-Green tensor, ``Bb = J^(-2/3) B`` its isochoric part with invariants
 
 import functools
 from types import SimpleNamespace
+from typing import Literal
 
 import warp as wp
 
 from tissuempm.precision import WarpTypes
+
+FiberKinematics = Literal["isochoric", "full"]
+FIBER_KINEMATICS: tuple[str, ...] = ("isochoric", "full")
+"""Fiber stretch of anisotropic laws, packed as the index: ``"isochoric"`` uses J^(-1/3) |F a0|
+(the uncoupled form), ``"full"`` uses |F a0| = sqrt(I4) (Sansour 2008; Nolan et al. 2014)."""
 
 
 @functools.cache
@@ -53,10 +59,54 @@ def kinematics(t: WarpTypes) -> SimpleNamespace:
             return K * (J - s(1.0))
         return K * wp.log(J) / J
 
+    @wp.func
+    def volumetric_kirchhoff_rate(J: t.scalar, form: t.scalar, K: t.scalar, D: t.mat33):
+        """(tau_vol, d tau_vol/d eps) of tau_vol = J U'(J) I under F -> (I + eps D) F:
+        d tau_vol = J (U' + J U'') tr(D) I, with J (U' + J U'') = K J (2J - 1) (form 0) or K (form 1)."""
+        eye = wp.identity(n=3, dtype=s)
+        m = K
+        if form < s(0.5):
+            m = K * J * (s(2.0) * J - s(1.0))
+        return J * volumetric_dUdJ(J, form, K) * eye, m * wp.trace(D) * eye
+
+    @wp.func
+    def isochoric_rate(X: t.mat33, D: t.mat33):
+        """d/d eps of X = J^(-2/3) F M F^T under F -> (I + eps D) F: D X + X D - 2/3 tr(D) X."""
+        return D * X + X * D - (s(2.0) / s(3.0)) * wp.trace(D) * X
+
+    @wp.func
+    def invariant_kirchhoff_rate(
+        Bb: t.mat33, W1: t.scalar, W2: t.scalar, W11: t.scalar, W12: t.scalar, W22: t.scalar, D: t.mat33
+    ):
+        """(tau, d tau/d eps) of the isochoric Kirchhoff stress tau = 2 dev[(W1 + I1b W2) Bb - W2 Bb^2]
+        of W(I1b, I2b) under F -> (I + eps D) F, with dBb from :func:`isochoric_rate`,
+        dI1b = tr dBb, dI2b = I1b dI1b - Bb : dBb, dWa = Wa1 dI1b + Wa2 dI2b."""
+        I1 = wp.trace(Bb)
+        B2 = Bb * Bb
+        dB = isochoric_rate(Bb, D)
+        dI1 = wp.trace(dB)
+        dI2 = I1 * dI1 - wp.ddot(Bb, dB)
+        dW1 = W11 * dI1 + W12 * dI2
+        dW2 = W12 * dI1 + W22 * dI2
+        A = (W1 + I1 * W2) * Bb - W2 * B2
+        dA = (dW1 + dI1 * W2 + I1 * dW2) * Bb + (W1 + I1 * W2) * dB - dW2 * B2 - W2 * (dB * Bb + Bb * dB)
+        return s(2.0) * dev(A), s(2.0) * dev(dA)
+
     return SimpleNamespace(
         dev=dev,
         isochoric_b_root=isochoric_b_root,
         invariants12=invariants12,
         invariant_cauchy=invariant_cauchy,
         volumetric_dUdJ=volumetric_dUdJ,
+        volumetric_kirchhoff_rate=volumetric_kirchhoff_rate,
+        isochoric_rate=isochoric_rate,
+        invariant_kirchhoff_rate=invariant_kirchhoff_rate,
     )
+
+
+@functools.cache
+def mat66(t: WarpTypes) -> type:
+    """The 6 x 6 matrix type of ``t``'s scalar (``wp.types.matrix(shape=(6, 6), dtype=t.scalar)``), built
+    once per precision so the materials' tangent functions and the solver use the same type
+    (Voigt layout: :mod:`tissuempm.materials.tangent`)."""
+    return wp.types.matrix(shape=(6, 6), dtype=t.scalar)

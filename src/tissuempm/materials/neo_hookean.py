@@ -49,3 +49,14 @@ class NeoHookean(InvariantHyperelastic):
             return prm[o], s(0.0)
 
         return dW
+
+    @classmethod
+    def _build_second_derivatives(cls, t: WarpTypes) -> Any:
+        """W is linear in the invariants: W11 = W12 = W22 = 0."""
+        s = t.scalar
+
+        @wp.func
+        def d2W(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
+            return s(0.0), s(0.0), s(0.0)
+
+        return d2W

@@ -20,20 +20,40 @@ def plot_material(
     n: int = 61,
     fiber=(1.0, 0.0, 0.0),
 ) -> Path:
-    """Write a PNG with (left) uniaxial nominal stress vs engineering strain at several rates
-    and (right) the quasi-static uniaxial, equibiaxial and pure-shear responses.
+    """Write a figure with (left) uniaxial nominal stress vs engineering strain at several rates
+    and (right) the quasi-static uniaxial, equibiaxial and pure-shear responses; returns the file written.
 
-    Compression is negative strain and stress (tension positive), stresses in kPa.
+    Compression is negative strain and stress (tension positive), stresses in kPa. The
+    format follows the suffix of ``output`` (``.png`` is added when it has none); a suffix
+    Matplotlib cannot write raises ``ValueError`` before anything is computed.
     """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    output = Path(output)
+    if not output.suffix:
+        output = output.with_suffix(".png")
     eps = np.linspace(strain[0], strain[1], n)
     lam = 1.0 + eps
     rates = (None, *PLOT_RATES) if material.rate_dependent else (None,)
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5), constrained_layout=True)
+    try:
+        formats = fig.canvas.get_supported_filetypes()
+        if output.suffix[1:].lower() not in formats:
+            raise ValueError(f"{output}: cannot write {output.suffix!r} figures: use one of "
+                             + ", ".join(f".{k}" for k in sorted(formats)))
+        _draw(fig, ax1, ax2, material, eps, lam, rates, fiber, title)
+        output.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(output, dpi=120)
+    finally:
+        plt.close(fig)
+    return output
+
+
+def _draw(fig, ax1, ax2, material: Material, eps: np.ndarray, lam: np.ndarray, rates, fiber, title: str) -> None:  # noqa: ANN001
+    """The two panels of :func:`plot_material`."""
     for rate in rates:
         res = stress_strain(material, "uniaxial", lam, rate=rate, fiber=fiber)
         label = "quasi-static" if rate is None else f"{rate:g} 1/s"
@@ -50,8 +70,3 @@ def plot_material(
     ax2.axvline(0.0, color="0.7", lw=0.5)
     ax2.legend()
     fig.suptitle(title or material.kind)
-    output = Path(output)
-    output.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(output, dpi=120)
-    plt.close(fig)
-    return output

@@ -96,6 +96,26 @@ class ReducedPolynomial(InvariantHyperelastic):
 
         return dW
 
+    @classmethod
+    def _build_second_derivatives(cls, t: WarpTypes) -> Any:
+        """W11 = sum_{i >= 2} i (i - 1) Ci0 (I1b - 3)^(i-2), W12 = W22 = 0."""
+        s = t.scalar
+
+        @wp.func
+        def d2W(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
+            n = int(prm[o])
+            x = I1 - s(3.0)
+            W11 = s(0.0)
+            xi = s(1.0)  # x^(i-2)
+            order = s(2.0)  # i
+            for i in range(1, n):
+                W11 += order * (order - s(1.0)) * prm[o + 1 + i] * xi
+                xi *= x
+                order += s(1.0)
+            return W11, s(0.0), s(0.0)
+
+        return d2W
+
 
 @dataclass(frozen=True, kw_only=True)
 class Polynomial(InvariantHyperelastic):
@@ -148,3 +168,14 @@ class Polynomial(InvariantHyperelastic):
             return W1, W2
 
         return dW
+
+    @classmethod
+    def _build_second_derivatives(cls, t: WarpTypes) -> Any:
+        """W11 = 2 C20, W12 = C11, W22 = 2 C02."""
+        s = t.scalar
+
+        @wp.func
+        def d2W(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
+            return s(2.0) * prm[o + 2], prm[o + 3], s(2.0) * prm[o + 4]
+
+        return d2W

@@ -23,25 +23,50 @@ Integrating ``dF2/dlam = T / lam`` from ``F2(1) = 0`` gives the energy
 
 Fiber kinematics (``fiber_kinematics``):
 
-* ``"isochoric"`` (seed and Uintah ``TransIsoHyper``): ``lam_f = lamb = J^(-1/3) |F a0|``,
-  the stretch of the isochoric part of ``C``. Then (eq. 3 fiber part)::
+* ``"full"`` (default; Sansour 2008; Helfenstein et al. 2010; Nolan et al. 2014):
+  ``lam_f = lam = |F a0| = sqrt(I4)``, the stretch of seed eq. 1. With
+  ``d lam / dF = (F a0) (x) a0 / lam``, ``sigma = (1/J) dW/dF F^T`` gives a
+  stress that is *not* deviatoric::
 
-      sigma_fiber = (1/J) T(lamb) dev(a (x) a),      a = F a0 / |F a0|
+      sigma_fiber = (1/J) T(lam) a (x) a,      a = F a0 / |F a0|
 
-* ``"full"`` (Sansour 2008; Helfenstein et al. 2010; Nolan et al. 2014):
-  ``lam_f = lam = |F a0| = sqrt(I4)``. With ``d lam / dF = (F a0) (x) a0 / lam``,
-  ``sigma = (1/J) dW/dF F^T`` gives a stress that is *not* deviatoric::
+* ``"isochoric"`` (the form of Uintah's ``TransIsoHyper``, and of seed 000's
+  eq. 2 as literally written with the isochoric invariants):
+  ``lam_f = lamb = J^(-1/3) |F a0|``, the stretch of the isochoric part of ``C``.
+  Then (eq. 3 fiber part)::
 
-      sigma_fiber = (1/J) T(lam) a (x) a
+      sigma_fiber = (1/J) T(lamb) dev(a (x) a)
 
   The isochoric split makes a compressible fiber-reinforced solid respond to a
   pure dilatation J with no fiber stress (and to a volume-preserving fiber
   stretch with a spurious pressure); the full-I4 form does not.
 
+Why "full" is the default: with K only ~24 G0 (seed 000's myocardium, K =
+100 kPa), the isochoric form lets the particle dilate under fiber tension and
+its along-fiber stress falls below the incompressible curve (26 % at a stretch
+of 1.2, 70 % at 1.3), while the full form stays within 2.3 % up to a stretch
+of 1.5, the seed's < 3 % (docs/materials.md, "Fiber kinematics: deviation
+table"; ``python benchmarks/weiss_fiber_forms.py``). Both forms agree in the
+incompressible limit.
+
 Matrix and volumetric Cauchy stresses::
 
     sigma_matrix = (2/J) dev[(C1 + I1b C2) Bb - C2 Bb^2]
     sigma_vol    = U'(J) I,   U = K/2 (ln J)^2 ("log", seed eq. 2)  or  K/2 (J - 1)^2 ("abaqus")
+
+Spatial elasticity tensor (implicit solver; :mod:`tissuempm.materials.tangent`),
+c = c_vol + c_matrix + c_fiber (Weiss et al. 1996, eqs 20-24; Holzapfel 2000,
+sec. 6.6), assembled column by column from the Kirchhoff stress rates under
+``F -> (I + eps d) F`` (``a . d a`` the fiber's stretching rate)::
+
+    c : d = (1/J) (d tau - d tau - tau d),      tau = J sigma
+    d tau_vol    = J (U' + J U'') tr(d) I
+    d tau_matrix = invariant-law rate with W1 = C1, W2 = C2 (invariant_hyperelastic.py)
+    d tau_fiber  = (lam T' - 2 T)(a . d a) a (x) a + d tau_f + tau_f d                    ("full")
+                 = lamb T'(lamb) (a . d a - tr(d)/3) dev(a (x) a)
+                   + T dev(d a (x) a + a (x) a d - 2 (a . d a) a (x) a)                   ("isochoric")
+
+so that for the full form c_fiber = (1/J)(lam T' - 2 T) a (x) a (x) a (x) a.
 
 Wave speed (seed eq. 9, c = sqrt((K + 4G/3) / rho)): :meth:`Weiss._build_moduli`
 returns instantaneous moduli that bound the acoustic tensor including fiber
@@ -64,7 +89,7 @@ Example
 
 
 from dataclasses import dataclass
-from typing import Any, ClassVar, Literal
+from typing import Any, ClassVar
 
 import numpy as np
 import scipy.special
@@ -78,11 +103,10 @@ from tissuempm.materials.invariant_hyperelastic import (
     isochoric_invariants,
     volumetric_energy,
 )
-from tissuempm.materials.kinematics import kinematics
+from tissuempm.materials.kinematics import FIBER_KINEMATICS, FiberKinematics, kinematics
+from tissuempm.materials.tangent import rate_tangent
 from tissuempm.precision import WarpTypes
 
-FiberKinematics = Literal["isochoric", "full"]
-FIBER_KINEMATICS: tuple[str, ...] = ("isochoric", "full")
 
 # Packed layout of the law's parameters (absolute indices into ``pack()``).
 O_FORM = PRM_OFFSET
@@ -117,12 +141,13 @@ class Weiss(Material):
     lam_star: float = parameter("1", default=1.3, gt=1.0, doc="stretch at which the fibers are straight")
     K: float = parameter("Pa", default=100.0e3, gt=0.0, doc="bulk modulus")
     volumetric: VolumetricForm = "log"
-    fiber_kinematics: FiberKinematics = "isochoric"
+    fiber_kinematics: FiberKinematics = "full"
 
     @classmethod
     def example(cls) -> "Weiss":
         """Myocardium, single-particle test of seed 000: C1 2.1 kPa, C3 0.14 kPa, C4 22, C5 100 kPa,
-        lam* 1.3, K 100 kPa (K/G = 47.6, nearly incompressible); density 1000 kg/m^3 (not given)."""
+        lam* 1.3, K 100 kPa (the seed's "bulk:shear ratio" 47.6 is K/C1; K/G0 = 23.8); density
+        1000 kg/m^3 (not given)."""
         return cls(C1=2.1e3, C2=0.0, C3=0.14e3, C4=22.0, C5=100.0e3, lam_star=1.3, K=100.0e3, density=1000.0)
 
     def check(self) -> None:
@@ -182,6 +207,26 @@ class Weiss(Material):
         return lam
 
     # ------------------------------------------------------------------ verification (NumPy)
+    def cauchy_parts(self, F: np.ndarray, a0: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(sigma_matrix, sigma_fiber, sigma_vol) [Pa], NumPy closed forms of eq. 3 (module docstring)."""
+        F = np.asarray(F, dtype=float)
+        a = np.array([1.0, 0.0, 0.0]) if a0 is None else np.asarray(a0, dtype=float)
+        J = float(np.linalg.det(F))
+        Bb = J ** (-2.0 / 3.0) * F @ F.T
+        I1 = float(np.trace(Bb))
+        dev = lambda A: A - np.trace(A) / 3.0 * np.eye(3)  # noqa: E731
+        sig_m = 2.0 / J * dev((self.C1 + I1 * self.C2) * Bb - self.C2 * Bb @ Bb)
+        x = F @ (a / np.linalg.norm(a))
+        aa = np.outer(x, x) / (x @ x)
+        T = float(self.fiber_stress(self.fiber_stretch(F, a)))
+        sig_f = T / J * (dev(aa) if self.fiber_kinematics == "isochoric" else aa)
+        U1 = self.K * (J - 1.0) if self.volumetric == "abaqus" else self.K * np.log(J) / J
+        return sig_m, sig_f, U1 * np.eye(3)
+
+    def cauchy_stress(self, F: np.ndarray, a0: np.ndarray | None = None) -> np.ndarray:
+        """Cauchy stress [Pa] (NumPy), the sum of :meth:`cauchy_parts`."""
+        return sum(self.cauchy_parts(F, a0))
+
     def strain_energy(self, F: np.ndarray, a0: np.ndarray | None = None) -> float:
         """W(F) [J/m^3]; ``a0`` defaults to e1."""
         F = np.asarray(F, dtype=float)
@@ -337,6 +382,68 @@ class Weiss(Material):
             return sig_m + sig_f + sig_v
 
         return stress
+
+    analytic_tangent: ClassVar[bool] = True
+
+    @classmethod
+    def _build_rate_parts(cls, t: WarpTypes) -> Any:
+        """``rate_parts(F, a0, prm, D) -> (tau_m, dtau_m, tau_f, dtau_f, tau_v, dtau_v, lam)``: Kirchhoff
+        stress of each constituent and its rate under F -> (I + eps D) F (module docstring); ``lam`` is
+        the full fiber stretch |F a0| (for the failure criteria)."""
+        k = kinematics(t)
+        fiber = cls._build_fiber(t)
+        s = t.scalar
+
+        @wp.func
+        def rate_parts(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s), D: t.mat33):
+            J = wp.determinant(F)
+            Bb, r = k.isochoric_b_root(F, J)
+            z = s(0.0)
+            tau_m, dtau_m = k.invariant_kirchhoff_rate(Bb, prm[O_C1], prm[O_C2], z, z, z, D)
+            tau_v, dtau_v = k.volumetric_kirchhoff_rate(J, prm[O_FORM], prm[O_K], D)
+            x = F * wp.normalize(a0)
+            lam = wp.length(x)
+            a = x / lam
+            aa = wp.outer(a, a)
+            ada = wp.dot(a, D * a)
+            tau_f = aa
+            dtau_f = aa
+            if prm[O_KIN] < s(0.5):
+                lb = lam * r
+                T, dT = fiber(lb, prm)
+                tau_f = T * k.dev(aa)
+                daa = D * aa + aa * D - s(2.0) * ada * aa
+                dtau_f = lb * dT * (ada - wp.trace(D) / s(3.0)) * k.dev(aa) + T * k.dev(daa)
+            else:
+                T, dT = fiber(lam, prm)
+                tau_f = T * aa
+                dtau_f = (lam * dT - s(2.0) * T) * ada * aa + D * tau_f + tau_f * D
+            return tau_m, dtau_m, tau_f, dtau_f, tau_v, dtau_v, lam
+
+        return rate_parts
+
+    @classmethod
+    def _build_tangent(cls, t: WarpTypes) -> Any:
+        """c = c_vol + c_matrix + c_fiber in closed form (module docstring)."""
+        rate_parts = cls._build_rate_parts(t)
+        s = t.scalar
+
+        @wp.func
+        def rate(
+            F: t.mat33,
+            L: t.mat33,
+            a0: t.vec3,
+            prm: wp.array(dtype=s),
+            s_in: wp.array2d(dtype=s),
+            s_out: wp.array2d(dtype=s),
+            p: int,
+            dt: s,
+            D: t.mat33,
+        ):
+            tm, dtm, tf, dtf, tv, dtv, lam = rate_parts(F, a0, prm, D)
+            return tm + tf + tv, dtm + dtf + dtv
+
+        return rate_tangent(t, rate)
 
     @classmethod
     def _build_moduli(cls, t: WarpTypes) -> Any:

@@ -61,3 +61,14 @@ class Yeoh(InvariantHyperelastic):
             return prm[o] + x * (s(2.0) * prm[o + 1] + s(3.0) * prm[o + 2] * x), s(0.0)
 
         return dW
+
+    @classmethod
+    def _build_second_derivatives(cls, t: WarpTypes) -> Any:
+        """W11 = 2 C20 + 6 C30 (I1b - 3), W12 = W22 = 0."""
+        s = t.scalar
+
+        @wp.func
+        def d2W(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
+            return s(2.0) * prm[o + 1] + s(6.0) * prm[o + 2] * (I1 - s(3.0)), s(0.0), s(0.0)
+
+        return d2W
