@@ -1,9 +1,11 @@
-"""Explicit material point method (uGIMP / linear / B-spline; USL, MUSL, USF) in Warp.
+"""Material point method in Warp: explicit (uGIMP / linear / B-spline; USL, MUSL, USF; grid reset or
+not reset) and implicit (Newton on the grid, Newmark or quasi-static).
 
 Public surface::
 
     from tissuempm.mpm import (SolverConfig, Control, Grid, GridBoundary, ParticleData,
-                               RigidMaterial, Model, State, ExplicitSolver, InstabilityError,
+                               RigidMaterial, Model, State, ExplicitSolver, ImplicitSolver,
+                               ImplicitConfig, InstabilityError,
                                Contact, ContactLaw, assign_fields)
 
 See ``docs/mpm.md`` for the algorithm and ``docs/verification.md`` for the tests.
@@ -12,6 +14,7 @@ See ``docs/mpm.md`` for the algorithm and ``docs/verification.md`` for the tests
 from tissuempm.mpm.config import Control, SolverConfig
 from tissuempm.mpm.contact import Contact, ContactLaw, assign_fields
 from tissuempm.mpm.errors import InstabilityError
+from tissuempm.mpm.implicit import ImplicitConfig, ImplicitSolver
 from tissuempm.mpm.model import Grid, GridBoundary, Model, ParticleData, RigidMaterial
 from tissuempm.mpm.solver import ExplicitSolver
 from tissuempm.mpm.state import State
@@ -23,6 +26,8 @@ __all__ = [
     "ExplicitSolver",
     "Grid",
     "GridBoundary",
+    "ImplicitConfig",
+    "ImplicitSolver",
     "InstabilityError",
     "Model",
     "ParticleData",

@@ -18,7 +18,11 @@ One step of size dt from the particle state at t_n:
 
    with the consistent tangent K_ab = sum_p V_p [(grad S_a)_j c_ijkl (grad S_b)_l
    + (grad S_a . sigma grad S_b) delta_ik] (c from each law's ``tangent_function``; Bonet & Wood
-   2008, eq. 9.35). ``dynamic=False`` is the quasi-static form (no inertia: R = f_ext - f_int).
+   2008, eq. 9.35). ``dynamic=False`` is the quasi-static form: no inertia (R = f_ext - f_int);
+   the iteration matrix gets :data:`QS_REGULARISATION` times its largest diagonal entry on the
+   diagonal, enough for the zero-energy modes of one particle per cell (the single-particle
+   test) but not for the weakly held nodes at the fringe of a GIMP body, where the stiffness
+   alone is nearly singular: use the dynamic form (the mass term holds them) for such models.
 3. Converged when ``|R| <= tol max(|f_int|, |f_ext|, |M a'|)`` and ``|du| <= tol |u|``;
    then x_p += sum S u_i, v_p by FLIP/PIC of the nodal velocities, a_p = sum S a_i', F, sigma and
    the history from the last iteration.
@@ -28,11 +32,12 @@ half the step; the next step tries twice the last successful one, up to ``dt``. 
 the run stops with an :class:`InstabilityError` that names the time, the iteration's residual
 and the node with the largest residual.
 
-The linear systems are assembled into 3 x 3 blocks by a Warp kernel and solved with SciPy's
-sparse direct solver (SuperLU) by default: at the sizes of the seed's tests (up to ~2e4
-unknowns) the factorisation is faster than preconditioned CG and needs no tolerance; ``"cg"``
-(Jacobi-preconditioned conjugate gradients, ``scipy.sparse.linalg.cg``) uses less memory for
-large 3-D grids (docs/mpm.md, "Implicit integration", has the measurements).
+The linear systems are assembled into 3 x 3 blocks of the active nodes by a Warp kernel and
+solved with SciPy. With inertia the iteration matrix K + 4/dt^2 M is well conditioned and
+Jacobi-preconditioned CG (``scipy.sparse.linalg.cg``) needs ~70 iterations: 3x faster per step
+than the sparse direct solver (SuperLU), whose fill-in is heavy for the 125-node coupling of GIMP
+(the reduced shear test, 9e3 unknowns: 0.03 s against 0.27 s a solve; docs/mpm.md). The
+quasi-static matrix has no mass term and is poorly conditioned, so it gets the direct solver.
 """
 
 import math
@@ -51,7 +56,9 @@ from tissuempm.mpm.model import Model
 from tissuempm.mpm.solver import ExplicitSolver
 from tissuempm.mpm.state import State
 
-LINEAR_SOLVERS: tuple[str, ...] = ("direct", "cg")
+LINEAR_SOLVERS: tuple[str, ...] = ("auto", "direct", "cg")
+QS_REGULARISATION = 1.0e-9
+"""Diagonal shift of the quasi-static iteration matrix, relative to its largest diagonal entry."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -71,7 +78,8 @@ class ImplicitConfig:
     dt_min
         Smallest step [s] before the run stops (default dt / 1024).
     linear_solver
-        ``"direct"`` (SuperLU, default) or ``"cg"`` (Jacobi-preconditioned CG).
+        ``"auto"`` (default: ``"cg"`` with inertia, ``"direct"`` quasi-static), ``"direct"`` (SuperLU)
+        or ``"cg"`` (Jacobi-preconditioned conjugate gradients).
     """
 
     dt: float
@@ -79,7 +87,7 @@ class ImplicitConfig:
     tolerance: float = 1.0e-6
     max_iterations: int = 25
     dt_min: float | None = None
-    linear_solver: str = "direct"
+    linear_solver: str = "auto"
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.dt) and self.dt > 0.0):
@@ -92,6 +100,13 @@ class ImplicitConfig:
             raise ValueError(f"implicit dt_min = {self.dt_min!r}: valid range is (0, dt = {self.dt:g}] s")
         if self.linear_solver not in LINEAR_SOLVERS:
             raise ValueError(f"linear_solver = {self.linear_solver!r} is not valid: choose one of {', '.join(LINEAR_SOLVERS)}")
+
+    @property
+    def solver(self) -> str:
+        """The linear solver ``"auto"`` resolves to."""
+        if self.linear_solver != "auto":
+            return self.linear_solver
+        return "cg" if self.dynamic else "direct"
 
     @property
     def smallest_dt(self) -> float:
@@ -139,7 +154,8 @@ class ImplicitSolver(ExplicitSolver):
         self.n_mv, self.n_ma, self.n_fb, self.n_cmv = zv(), zv(), zv(), zv()
         self.n_v, self.n_a, self.n_free, self.n_vc = zv(), zv(), zv(), zv()
         self.n_u, self.n_fint, self.n_dv, self.n_vnew, self.n_anew = zv(), zv(), zv(), zv(), zv()
-        self.Kb = wp.zeros((n, self.ik.NB**3), dtype=t.mat33, device=dev)
+        self.Kb = wp.zeros((0, self.ik.NB**3), dtype=t.mat33, device=dev)  # grown to the active nodes
+        self.n_row = wp.full(n, -1, dtype=int, device=dev)
         _, ny, nz = model.grid.node_shape
         sx, sy = ny * nz, nz
         NP, NB = self.ik.NP, self.ik.NB
@@ -200,7 +216,7 @@ class ImplicitSolver(ExplicitSolver):
         wp.launch(self.ik.nodes, dim=self.n_nodes, device=self.device, inputs=[
             self.n_m, self.n_mv, self.n_ma, self.n_cm, self.n_cmv, s(st.min_node_mass), self.dims,
             len(self._bc_face), self.bc_kind, self.bc_vel, self.n_v, self.n_a, self.n_free, self.n_vc])  # fmt: skip
-        return {k: getattr(self, "n_" + k).numpy().astype(float) for k in ("m", "v", "a", "fb", "free", "vc", "cm", "cmv")}
+        return {k: np.asarray(getattr(self, "n_" + k).numpy(), dtype=float) for k in ("m", "v", "a", "fb", "free", "vc", "cm", "cmv")}
 
     def _residual_parts(self, st: State, u: np.ndarray, dt: float, stiffness: bool) -> tuple[np.ndarray, np.ndarray | None]:
         """Particle update at nodal displacement ``u`` and the assembly: (f_int, K blocks)."""
@@ -221,23 +237,29 @@ class ImplicitSolver(ExplicitSolver):
             self.Kb.zero_()
         wp.launch(self.ik.assemble, dim=st.n, device=self.device, inputs=[
             st.x, st.size, st.F, self._F, self._sig, self._c, st.volume0, st.material, self.mat_rigid, *common,
-            int(stiffness), self.n_fint, self.Kb])  # fmt: skip
-        f_int = self.n_fint.numpy().astype(float)
-        return f_int, (self.Kb.numpy().astype(float) if stiffness else None)
+            int(stiffness), self.n_fint, self.n_row, self.Kb])  # fmt: skip
+        f_int = np.array(self.n_fint.numpy(), dtype=float)  # a copy: the next call overwrites the array
+        return f_int, (np.asarray(self.Kb.numpy(), dtype=float) if stiffness else None)  # a view, used at once
+
+    def _stiffness_rows(self, act: np.ndarray, idx: np.ndarray) -> None:
+        """Store the stiffness rows of the active nodes ``act`` (``idx``: node -> row or -1)."""
+        self.n_row.assign(idx)
+        if self.Kb.shape[0] < act.size:
+            self.Kb = wp.zeros((int(1.25 * act.size) + 1, self.ik.NB**3), dtype=self.t.mat33, device=self.device)
 
     def _matrix(self, blocks: np.ndarray, act: np.ndarray, idx: np.ndarray) -> sp.csr_matrix:
-        """Global stiffness of the active nodes from the per-node blocks (BSR, then CSR)."""
+        """Global stiffness of the active nodes from their blocks (BSR, then CSR)."""
         nbr = act[:, None] + self._offsets[None, :]
         ok = (nbr >= 0) & (nbr < self.n_nodes)
         ok[ok] = idx[nbr[ok]] >= 0
-        data = blocks[act][ok]
+        data = blocks[: act.size][ok]
         indptr = np.concatenate([[0], np.cumsum(ok.sum(axis=1))])
         na = act.size
         K = sp.bsr_matrix((data, idx[nbr[ok]], indptr), shape=(3 * na, 3 * na))
         return K.tocsr()
 
     def _linear_solve(self, K: sp.csr_matrix, r: np.ndarray) -> np.ndarray:
-        if self.implicit.linear_solver == "cg":
+        if self.implicit.solver == "cg":
             d = K.diagonal()
             M = sp.diags(1.0 / np.where(d > 0, d, 1.0))
             x, info = spla.cg(K, r, rtol=1e-10, maxiter=20 * K.shape[0], M=M)
@@ -258,6 +280,7 @@ class ImplicitSolver(ExplicitSolver):
         act = np.flatnonzero(m > st.min_node_mass)
         idx = np.full(n, -1, dtype=np.int64)
         idx[act] = np.arange(act.size)
+        self._stiffness_rows(act, idx)
         free = nd["free"][act].astype(bool).ravel()  # active dofs, node-major
         g = np.array([self._gravity[0], self._gravity[1], self._gravity[2]], dtype=float)
         f_ext = (m[:, None] * g + nd["fb"])[act].ravel()
@@ -278,8 +301,8 @@ class ImplicitSolver(ExplicitSolver):
             norm_f = max(np.linalg.norm(fi), np.linalg.norm(f_ext), np.linalg.norm(inertia), 1e-300)
             r_free = R[free]
             K = self._matrix(blocks, act, idx)[free][:, free]
-            diag = 4.0 / dt**2 * mdof[free] if cfg.dynamic else 1e-9 * np.abs(K.diagonal()).max() * np.ones(r_free.size)
-            du = self._linear_solve((K + sp.diags(diag)).tocsr(), r_free)
+            reg = 4.0 / dt**2 * mdof[free] if cfg.dynamic else QS_REGULARISATION * np.abs(K.diagonal()).max()
+            du = self._linear_solve((K + sp.diags(reg * np.ones(r_free.size))).tocsr(), r_free)
             ua[free] += du
             self.iterations += 1
             r_rel = np.linalg.norm(r_free) / norm_f

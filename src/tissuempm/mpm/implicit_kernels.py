@@ -8,9 +8,9 @@ step, and with ``F_inc = I + sum_i u_i (x) grad_n S_i`` the current gradients ar
 and deterministic).
 
 Block storage of the stiffness: node ``n`` couples with the nodes ``n + (di, dj, dk)``,
-``|d| <= NP - 1`` per axis (NP nodes per axis of a stencil), so row ``n`` has ``NB^3`` 3 x 3
+``|d| <= NP - 1`` per axis (NP nodes per axis of a stencil), so its row has ``NB^3`` 3 x 3
 blocks, ``NB = 2 NP - 1``, the block of offset ``d`` at column ``((di + NP - 1) NB + dj + NP - 1)
-NB + dk + NP - 1`` of the 2-D array ``Kb`` (nodes x NB^3).
+NB + dk + NP - 1`` of the 2-D array ``Kb`` (active nodes x NB^3; ``row[n]`` is node n's row).
 """
 
 import functools
@@ -171,11 +171,12 @@ def implicit_kernels(t: WarpTypes, shape: str) -> Any:
         F_new: wp.array(dtype=mat33), sig: wp.array(dtype=mat33), cv: wp.array(dtype=M66),
         vol0: wp.array(dtype=s), material: wp.array(dtype=wp.int32), mat_rigid: wp.array(dtype=wp.int32),
         origin: vec3, inv_h: s, dims: wp.vec3i, stiffness: int, f_int: wp.array(dtype=vec3),
-        Kb: wp.array2d(dtype=mat33),
+        row: wp.array(dtype=int), Kb: wp.array2d(dtype=mat33),
     ):  # fmt: skip
         """Internal force f_i = sum_p V_p sigma_p grad S_ip and (``stiffness`` != 0) the tangent
         blocks K_ab = sum_p V_p [c_ijkl (grad S_a)_j (grad S_b)_l + (grad S_a . sigma grad S_b) delta_ik],
-        V = V_0 J, grad S = F_inc^-T grad_n S, F_inc = F F_n^-1 (Bonet & Wood 2008, eq. 9.35)."""
+        V = V_0 J, grad S = F_inc^-T grad_n S, F_inc = F F_n^-1 (Bonet & Wood 2008, eq. 9.35); the
+        blocks of node n go to row ``row[n]`` of ``Kb`` (the active nodes only; -1: not stored)."""
         p = wp.tid()
         if mat_rigid[material[p]] != 0:
             return
@@ -202,7 +203,8 @@ def implicit_kernels(t: WarpTypes, shape: str) -> Any:
             ga = FiT * vec3(dx[ia] * wy[ja] * wz[ka], wx[ia] * dy[ja] * wz[ka], wx[ia] * wy[ja] * dz[ka])
             na = nb + ia * sx + ja * sy + ka
             wp.atomic_add(f_int, na, V * (S * ga))
-            if stiffness != 0:
+            ra = row[na]
+            if stiffness != 0 and ra >= 0:
                 # T_l[i, k] = sum_j (grad S_a)_j c_ijkl, times V
                 T0 = mat33()
                 T1 = mat33()
@@ -222,7 +224,7 @@ def implicit_kernels(t: WarpTypes, shape: str) -> Any:
                     gb = FiT * vec3(dx[ib] * wy[jb] * wz[kb], wx[ib] * dy[jb] * wz[kb], wx[ib] * wy[jb] * dz[kb])
                     blk = gb[0] * T0 + gb[1] * T1 + gb[2] * T2 + wp.dot(Sga, gb) * wp.identity(n=3, dtype=s)
                     off = ((ib - ia + NP - 1) * NB + (jb - ja + NP - 1)) * NB + (kb - ka + NP - 1)
-                    wp.atomic_add(Kb, na, off, blk)
+                    wp.atomic_add(Kb, ra, off, blk)
 
     @kernel
     def finish(

@@ -1,0 +1,150 @@
+"""Seed 000's along-fiber shear test (Ionescu et al. 2006, Figs. 3a, 5, 6): explicit against implicit,
+with and without failure, at the seed's resolution (1 mm cells, 4 x 4 x 4 particles per cell,
+160,000 particles) or a reduced one.
+
+    python benchmarks/seed_shear.py                       # seed resolution (about an hour on 2 cores)
+    python benchmarks/seed_shear.py --cell "2 mm" --ppc 2 --out /tmp/shear   # reduced, minutes
+
+Writes ``metrics.json`` and figures (``shear_*.png``) into ``--out`` (default docs/figures and
+benchmarks/results/seed_shear.json). The metrics (docs/validation.md): grip displacement at the
+first failure for each integrator, where failure starts (against the peak of the no-failure
+shear-strain map at that displacement), the Jaccard index of the failed sets of the two
+integrators at equal grip displacement, and the fraction of complete failure.
+"""
+
+import argparse
+import json
+import pickle
+import time
+from pathlib import Path
+
+import numpy as np
+
+from tissuempm.analysis.failure_track import jaccard, track_failure
+from tissuempm.scenarios import load_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "examples" / "shear_test.toml"
+RUNS = ("explicit_failure", "explicit_elastic", "implicit_failure", "implicit_elastic")
+STOPS_MM = (12.0, 14.0, 16.0, 18.0, 20.0, 24.0, 28.0)
+NO_FAILURE = ["materials.myocardium.gamma_max=1000", "materials.myocardium.eps_max=1000"]
+
+
+def variant(cell: str, ppc: int, integrator: str, failure: bool, dt: str) -> list[str]:
+    sets = [f'grid.cell_size="{cell}"', 'run.end_time="0.3 s"'] + [f"body[{i}].particles_per_cell={ppc}" for i in range(3)]
+    if integrator == "implicit":
+        sets += ["solver.integrator=implicit", f'solver.implicit={{dt="{dt}"}}']
+    return sets + ([] if failure else NO_FAILURE)
+
+
+def corner_distance(x0: np.ndarray) -> np.ndarray:
+    """Distance [m] of reference positions from the nearer of the two corners under tension
+    (bottom-left (0, 0) and top-right (50, 50) mm)."""
+    d1 = np.hypot(x0[:, 0], x0[:, 1])
+    d2 = np.hypot(x0[:, 0] - 0.05, x0[:, 1] - 0.05)
+    return np.minimum(d1, d2)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--cell", default="1 mm")
+    ap.add_argument("--ppc", type=int, default=4)
+    ap.add_argument("--dt", default="1 ms", help="implicit time step")
+    ap.add_argument("--check", type=float, default=0.1e-3, help="grip travel between failure checks [m]")
+    ap.add_argument("--out", default=None)
+    ap.add_argument("--runs", default=",".join(RUNS), help="runs to do now (the others are read from --out)")
+    args = ap.parse_args()
+    out = Path(args.out) if args.out else ROOT / "docs" / "figures"
+    out.mkdir(parents=True, exist_ok=True)
+    stops = [d * 1e-3 for d in STOPS_MM]
+    todo = [r for r in args.runs.split(",") if r]
+    for key in todo:
+        integrator, kind = key.split("_")
+        sc = load_scenario(EXAMPLE, variant(args.cell, args.ppc, integrator, kind == "failure", args.dt))
+        t0 = time.perf_counter()
+        tr = track_failure(sc, "sheet", "grip_top", "grip_bottom", check_interval=args.check, snapshots=stops,
+                           end_displacement=stops[-1])  # fmt: skip
+        (out / f"shear_{key}.pkl").write_bytes(pickle.dumps(tr))
+        print(key, f"{time.perf_counter() - t0:.0f} s", tr.steps, "steps, first failure at",
+              f"{1e3 * tr.first_failure_displacement():.2f} mm" if tr.first else "none", flush=True)  # fmt: skip
+    runs = {k: pickle.loads((out / f"shear_{k}.pkl").read_bytes()) for k in RUNS if (out / f"shear_{k}.pkl").exists()}
+    if len(runs) < len(RUNS):
+        print("runs missing for the report:", sorted(set(RUNS) - set(runs)))
+        return
+    ex, im = runs["explicit_failure"], runs["implicit_failure"]
+    d_ex, d_im = ex.first_failure_displacement(), im.first_failure_displacement()
+    metrics: dict = {
+        "resolution": {"cell": args.cell, "ppc": args.ppc, "particles": ex.n},
+        "first_failure_mm": {"explicit": 1e3 * d_ex, "implicit": 1e3 * d_im},
+        "first_failure_difference": abs(d_ex - d_im) / d_ex,
+        "wall_s": {k: r.wall for k, r in runs.items()},
+        "steps": {k: r.steps for k, r in runs.items()},
+    }
+    for name, tr in (("explicit", ex), ("implicit", im)):
+        f = tr.first
+        failed = f.failure > 0
+        elastic = runs[f"{name}_elastic"]
+        # the no-failure map at the onset displacement: its peaks against the first failed particles
+        ref = min(elastic.snapshots.values(), key=lambda s: abs(s.displacement - f.displacement)) if elastic.snapshots else None
+        metrics[f"onset_{name}"] = {
+            "failed": int(failed.sum()),
+            "corner_distance_mm": (1e3 * corner_distance(f.x0[failed])).round(2).tolist(),
+            "matrix_first": bool(np.all(f.failure[failed] == 1)),
+        }
+        if ref is not None:
+            top = np.argsort(ref.shear_strain)[-max(int(failed.sum()), 1):]
+            metrics[f"onset_{name}"]["elastic_peak_corner_distance_mm"] = (1e3 * corner_distance(ref.x0[top])).round(2).tolist()
+    metrics["jaccard"] = {}
+    for d in stops:
+        a, b = ex.snapshots.get(d), im.snapshots.get(d)
+        if a is None or b is None:
+            continue
+        fa, fb = a.failure > 0, b.failure > 0
+        metrics["jaccard"][f"{1e3 * d:.0f} mm"] = {
+            "jaccard": jaccard(fa, fb),
+            "failed_explicit": float(fa.mean()),
+            "failed_implicit": float(fb.mean()),
+            "total_of_failed_explicit": float((a.failure == 3).sum() / max(fa.sum(), 1)),
+            "total_of_failed_implicit": float((b.failure == 3).sum() / max(fb.sum(), 1)),
+        }
+    (out / "shear_metrics.json").write_text(json.dumps(metrics, indent=2))
+    print(json.dumps(metrics, indent=2))
+    figures(runs, stops, out)
+
+
+def figures(runs: dict, stops: list[float], out: Path) -> None:
+    """Seed Figs. 5-6 style: failure state maps of both integrators at the grip displacements, and
+    the no-failure shear-strain map at the explicit onset."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+
+    cmap = ListedColormap(["#d9d9d9", "#fdae61", "#2c7bb6", "#d7191c"])
+    shown = [d for d in stops if all(d in runs[k].snapshots for k in ("explicit_failure", "implicit_failure"))][:4]
+    fig, axes = plt.subplots(2, len(shown) + 1, figsize=(3.2 * (len(shown) + 1), 6.4), constrained_layout=True)
+    for row, name in enumerate(("explicit", "implicit")):
+        el = runs[f"{name}_elastic"]
+        onset = runs[f"{name}_failure"].first
+        if onset is not None and el.snapshots:
+            ref = min(el.snapshots.values(), key=lambda s: abs(s.displacement - onset.displacement))
+            ax = axes[row, 0]
+            sc = ax.scatter(1e3 * ref.x[:, 0], 1e3 * ref.x[:, 1], c=ref.shear_strain, s=0.3, cmap="viridis")
+            fig.colorbar(sc, ax=ax, shrink=0.8, label="max shear strain")
+            ax.set_title(f"{name}, no failure, {1e3 * ref.displacement:.1f} mm")
+        for col, d in enumerate(shown, start=1):
+            s = runs[f"{name}_failure"].snapshots[d]
+            ax = axes[row, col]
+            ax.scatter(1e3 * s.x[:, 0], 1e3 * s.x[:, 1], c=s.failure, s=0.3, cmap=cmap, vmin=0, vmax=3)
+            ax.set_title(f"{name}, {1e3 * d:.0f} mm")
+        for ax in axes[row]:
+            ax.set_aspect("equal")
+            ax.set_xlabel("x [mm]")
+            ax.set_ylabel("y [mm]")
+    fig.suptitle("Shear test: failure state (grey intact, orange matrix, blue fiber, red total)")
+    fig.savefig(out / "shear_failure_maps.png", dpi=110)
+
+
+if __name__ == "__main__":
+    main()
