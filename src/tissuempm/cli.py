@@ -8,15 +8,18 @@
     tissuempm calibrate CONFIG.toml [--out DIR] [--json]
     tissuempm run SCENARIO.toml [--out DIR] [--device cpu|cuda] [--restart]
     tissuempm wound RUN_DIR [--frame N] [--json] [--out DIR] [--projectile NAME] [--tissue NAME] [--no-figures]
+    tissuempm study STUDY.toml [--out DIR] [--scheduler ADDRESS | --workers N] [--resume]
 """
 
 import json
+import warnings
 from pathlib import Path
 from typing import Annotated, Optional
 
 import numpy as np
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from tissuempm import __version__
@@ -30,8 +33,13 @@ err_console = Console(stderr=True)
 
 
 def _fail(message: str) -> None:
-    err_console.print(f"[bold red]error:[/] {message}")
+    err_console.print(f"[bold red]error:[/] {escape(message)}", highlight=False)
     raise typer.Exit(code=2)
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:  # noqa: ANN001
+    """Warnings (e.g. a skipped user library file) as one ``warning:`` line on stderr, without source lines."""
+    err_console.print(f"[yellow]warning:[/] {escape(str(message))}", highlight=False)
 
 
 def _version(value: bool) -> None:
@@ -47,6 +55,7 @@ def main(
     ] = None,
 ) -> None:
     """tissuempm: data -> calibrated model -> material library -> MPM injury simulation."""
+    warnings.showwarning = _show_warning
 
 
 def _entry(name: str):
@@ -204,7 +213,10 @@ def materials_stress(
     stretch: Annotated[str, typer.Option(help="START:STOP:N stretches (shear amount gamma for simple_shear).")] = (
         "0.7:1.5:17"
     ),
-    rate: Annotated[Optional[float], typer.Option(help="Engineering strain rate [1/s]; omit for quasi-static.")] = None,
+    rate: Annotated[
+        Optional[float], typer.Option(help="Engineering strain rate [1/s], > 0 (loading or unloading follows the "
+                                      "stretches); omit for quasi-static.")
+    ] = None,
     fiber: Annotated[Optional[str], typer.Option(help="Fiber direction X,Y,Z of anisotropic laws.")] = None,
     json_output: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
@@ -213,6 +225,9 @@ def materials_stress(
 
     if mode not in MODES:
         _fail(f"--mode {mode!r} is not valid: choose one of {', '.join(MODES)}")
+    if rate is not None and not (np.isfinite(rate) and rate > 0):
+        _fail(f"--rate {rate:g}: must be a positive strain rate in 1/s (the stretches set the direction: "
+              "values below 1 compress); omit it for quasi-static")
     lam = _parse_range(stretch)
     if mode != "simple_shear" and np.any(lam <= 0):
         _fail("--stretch: stretches must be > 0")
@@ -251,18 +266,30 @@ def materials_stress(
 @materials_app.command("plot")
 def materials_plot(
     name: Annotated[str, typer.Argument(help="Library name.")],
-    output: Annotated[Path, typer.Option("-o", "--output", help="PNG file to write.")],
+    output: Annotated[
+        Path,
+        typer.Option("-o", "--output",
+                     help="Figure to write (.png added without a suffix), or an existing folder: NAME.png in it."),
+    ],
     fiber: Annotated[Optional[str], typer.Option(help="Fiber direction X,Y,Z of anisotropic laws.")] = None,
 ) -> None:
     """Plot uniaxial nominal stress over -30%..+30% strain at several strain rates (seed 004 figs 13-32)."""
+    from tissuempm.io import folder_problem
     from tissuempm.materials.plots import plot_material
 
     entry = _entry(name)
+    target = output / f"{entry.name}.png" if output.is_dir() else output
+    problem = folder_problem(target.parent)
+    if problem is not None:
+        _fail(f"-o {output}: cannot write {target}: {problem}")
     try:
-        plot_material(entry.material, output, title=f"{entry.title} ({entry.name})", fiber=_parse_fiber(fiber))
+        written = plot_material(entry.material, target, title=f"{entry.title} ({entry.name})",
+                                fiber=_parse_fiber(fiber))
     except (ValueError, RuntimeError) as exc:
         _fail(str(exc))
-    console.print(f"wrote {output}")
+    except OSError as exc:
+        _fail(f"-o {output}: cannot write {target}: {exc.strerror or exc}")
+    console.print(f"wrote {escape(str(written))}", highlight=False)
 
 
 def _register_commands() -> None:
@@ -270,10 +297,12 @@ def _register_commands() -> None:
     from tissuempm.analysis.command import wound
     from tissuempm.calibration.command import calibrate
     from tissuempm.scenarios.command import run
+    from tissuempm.study.command import study
 
     app.command("calibrate")(calibrate)
     app.command("run")(run)
     app.command("wound")(wound)
+    app.command("study")(study)
 
 
 _register_commands()

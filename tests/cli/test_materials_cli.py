@@ -101,3 +101,63 @@ def test_plot_writes_a_png(name, tmp_path):
 def test_plot_every_entry(name, tmp_path):
     res = invoke("materials", "plot", name, "-o", str(tmp_path / "p.png"))
     assert res.exit_code == 0, res.output
+
+
+def said(res):
+    """The output with rich's line wrapping undone."""
+    return " ".join(res.output.split())
+
+
+def test_plot_output_name_without_suffix_and_folder(tmp_path):
+    """-o NAME writes NAME.png and says so; -o DIR writes DIR/<entry>.png inside the folder."""
+    res = invoke("materials", "plot", "csf", "-o", str(tmp_path / "curve"))
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "curve.png").exists() and not (tmp_path / "curve").exists()
+    assert f"wrote{tmp_path / 'curve.png'}" in "".join(res.output.split())  # the path written, wrapping undone
+    folder = tmp_path / "figs"
+    folder.mkdir()
+    res = invoke("materials", "plot", "csf", "-o", str(folder))
+    assert res.exit_code == 0, res.output
+    assert (folder / "csf.png").read_bytes()[:4] == b"\x89PNG"
+    assert not (tmp_path / "figs.png").exists()
+    assert f"wrote{folder / 'csf.png'}" in "".join(res.output.split())
+
+
+def test_plot_to_a_place_that_cannot_be_written(tmp_path):
+    blocker = tmp_path / "file.txt"
+    blocker.write_text("x")
+    res = invoke("materials", "plot", "csf", "-o", str(blocker / "curve.png"))
+    assert res.exit_code == 2 and "is a file" in said(res) and "Traceback" not in res.output
+    res = invoke("materials", "plot", "csf", "-o", str(tmp_path / "curve.xyz"))
+    assert res.exit_code == 2 and "cannot write '.xyz' figures" in said(res)
+    assert list(tmp_path.iterdir()) == [blocker]
+
+
+@pytest.mark.parametrize("rate", ["-1", "nan", "-inf"])
+def test_negative_rate_is_refused(rate):
+    """--rate -1 used to act as +1 (the driver takes |rate|): refused, the stretches set the direction."""
+    res = invoke("materials", "stress", "csf", "--rate", rate)
+    assert res.exit_code == 2 and "must be a positive strain rate" in said(res)
+
+
+@pytest.mark.parametrize("args", [("show", "bad_gel"), ("stress", "bad_gel"), ("show", "zero_gel")])
+def test_user_entry_with_bad_values_is_named(tmp_path, monkeypatch, args):
+    """A user file whose parameters the law rejects (or whose expression divides by zero) is skipped with
+    a warning line naming the file and the value; `materials show`/`stress` of it exit 2, no traceback.
+    (Each case has its own folder: Python shows a warning once per process and text.)"""
+    home = tmp_path / "home"
+    home.mkdir()
+    monkeypatch.setenv("HOME", str(home))
+    monkeypatch.setenv(library.ENV_VAR, str(tmp_path))
+    library.unregister()
+    (tmp_path / "bad.toml").write_text('name = "bad_gel"\nsource = "t"\ndensity = 1000.0\n'
+                                       '[model]\nkind = "neo_hookean"\nC10 = -5.0\nK = 1e6\n')
+    (tmp_path / "zero.toml").write_text('name = "zero_gel"\nsource = "t"\ndensity = 1000.0\n[inputs]\nG = 1.0\n'
+                                        '[model]\nkind = "neo_hookean"\nC10 = "G / 0"\nK = 1e6\n')
+    res = invoke("materials", *args)
+    assert res.exit_code == 2, res.output
+    text = said(res)
+    assert "Traceback" not in res.output and f"unknown library entry '{args[1]}'" in text
+    assert "warning: skipping user library file" in text
+    assert "NeoHookean.C10 = -5.0 is out of range" in text and "'G / 0' cannot be evaluated" in text
+    assert invoke("materials", "show", "csf").exit_code == 0  # the built-in entries are unaffected

@@ -135,3 +135,46 @@ def test_vtu_series_readable_and_truncatable(tmp_path):
 def test_write_json_numpy(tmp_path):
     write_json(tmp_path / "s.json", {"a": np.float64(1.5), "b": np.arange(3), "c": {"d": np.int32(2)}})
     assert json.loads((tmp_path / "s.json").read_text()) == {"a": 1.5, "b": [0, 1, 2], "c": {"d": 2}}
+
+
+def test_read_checkpoint_of_the_wrong_structure(tmp_path):
+    """Valid HDF5 files that are not complete checkpoints give CheckpointError naming what is wrong."""
+    import h5py
+
+    from tissuempm.io.checkpoint import FORMAT
+
+    path = tmp_path / "c.h5"
+    with h5py.File(path, "w") as f:
+        f.create_dataset("x", data=np.zeros(3))
+    with pytest.raises(CheckpointError, match="not a tissuempm checkpoint"):
+        read_checkpoint(path)
+    with h5py.File(path, "w") as f:
+        f.attrs["format"] = FORMAT
+        f.attrs["meta"] = "{}"
+        f.create_dataset("state", data=np.zeros(3))  # a dataset where the group belongs
+    with pytest.raises(CheckpointError, match="lacks the 'meta' attribute or the 'state' group"):
+        read_checkpoint(path)
+    for meta in ("[1, 2]", "{broken"):
+        with h5py.File(path, "w") as f:
+            f.attrs["format"] = FORMAT
+            f.attrs["meta"] = meta
+            f.create_group("state")
+        with pytest.raises(CheckpointError, match="unreadable 'meta' attribute"):
+            read_checkpoint(path)
+
+
+@pytest.mark.parametrize("cut", [1, 5, -3])
+def test_history_truncate_drops_a_half_written_row(tmp_path, cut):
+    """A run killed while appending a row leaves part of it; truncate keeps the complete rows up to the step."""
+    from tissuempm.io import HistoryLog
+
+    log = HistoryLog(tmp_path / "h.csv", {})
+    for step in range(3):
+        log.append({**_state(), "step": step, "time": 1e-3 * step})
+    text = (tmp_path / "h.csv").read_text()
+    last = text.splitlines()[-1]
+    (tmp_path / "h.csv").write_text(text + last[:cut])
+    log.truncate(5)
+    rows = (tmp_path / "h.csv").read_text().splitlines()
+    assert len(rows) == 4 and rows[-1] == last  # header and the 3 complete rows
+    assert log.read()["step"].tolist() == [0, 1, 2]

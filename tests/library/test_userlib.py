@@ -1,7 +1,5 @@
 """User library files: write_entry, TISSUEMPM_LIBRARY_PATH, ~/.tissuempm/materials, register."""
 
-import warnings
-
 import pytest
 
 from tissuempm import library
@@ -59,3 +57,36 @@ def test_bad_files(tmp_path, isolated_library, monkeypatch):
         library.register(tmp_path / "broken.toml")
     with pytest.raises(ValueError, match="snake_case"):
         library.write_entry(tmp_path, "Bad Name", NeoHookean(), source="s")
+
+
+def _user_file(folder, name, c10):
+    (folder / f"{name}.toml").write_text(
+        f'name = "{name}"\nsource = "test"\ndensity = 1000.0\n[inputs]\nG = 2000.0\n'
+        f'[model]\nkind = "neo_hookean"\nC10 = {c10}\nK = 1e6\n', encoding="utf-8")
+
+
+@pytest.mark.parametrize(
+    "c10, problem",
+    [
+        ('"G / 0"', "'G / 0' cannot be evaluated: float division by zero"),
+        ('"10.0 ** 400"', "'10.0 ** 400' cannot be evaluated"),
+        ('"1e300 * 1e300"', "evaluates to inf: not a finite number"),
+        ('"sqrt(-G)"', "'sqrt(-G)' cannot be evaluated: math domain error"),
+        ("-5.0", "entry 'bad_gel': NeoHookean.C10 = -5.0 is out of range"),
+        ('"G * [1, 2]"', "'G * [1, 2]' cannot be evaluated: can't multiply sequence"),
+    ],
+)
+def test_a_bad_user_file_is_skipped_and_the_rest_loads(tmp_path, isolated_library, monkeypatch, c10, problem):
+    """Issue 12 item 5: an arithmetic error or a value its law rejects skips that file with a warning
+    naming the file and the problem; the other user files and the built-in entries still load."""
+    _user_file(tmp_path, "bad_gel", c10)
+    _user_file(tmp_path, "good_gel", '"G / 2"')
+    monkeypatch.setenv(library.ENV_VAR, str(tmp_path))
+    with pytest.warns(UserWarning) as caught:
+        names = library.names()
+        assert library.get("good_gel").material.C10 == 1000.0
+    text = " ".join(str(w.message) for w in caught)
+    assert "bad_gel.toml" in text and problem in text, text
+    assert "good_gel" in names and "bad_gel" not in names and "csf" in names
+    with pytest.raises(library.LibraryFileError, match="bad_gel.toml"):
+        library.register(tmp_path / "bad_gel.toml")

@@ -30,7 +30,7 @@ def test_stiffness_is_the_derivative_of_the_internal_force(law, shape):
     act = np.flatnonzero(nd["m"] > 0)
     idx = np.full(s.n_nodes, -1)
     idx[act] = np.arange(act.size)
-    s._stiffness_rows(act, idx)
+    s._stiffness_rows(act, idx, len(st.chunks))
     u = np.zeros((s.n_nodes, 3))
     u[act] = rng.normal(scale=0.05 * h, size=(act.size, 3))
     _, blocks = s._residual_parts(st, u, 1e-3, True)

@@ -11,6 +11,29 @@ from tissuempm.scenarios.runner import CHECKPOINT, Runner
 from tissuempm.scenarios.schema import Scenario
 
 
+# A 4 x 4 x 4 mm neo-Hookean gel cube (8 particles per cell, 512 particles) in an 8 x 6 x 6 mm grid.
+GEL = """
+name = "gel"
+[grid]
+lower = [0, 0, 0]
+upper = ["8 mm", "6 mm", "6 mm"]
+cell_size = "1 mm"
+[materials.gel]
+kind = "neo_hookean"
+C10 = "5 kPa"
+K = "30 kPa"
+density = "1000 kg/m^3"
+[[body]]
+name = "gel"
+material = "gel"
+shape = { type = "box", lower = ["1 mm", "1 mm", "1 mm"], upper = ["5 mm", "5 mm", "5 mm"] }
+[run]
+end_time = "0.1 ms"
+"""
+GEL_MATERIAL = 'kind = "neo_hookean"\nC10 = "5 kPa"\nK = "30 kPa"\ndensity = "1000 kg/m^3"'
+"""The gel's material lines, to be replaced by e.g. ``library = "..."``."""
+
+
 def scenario(text: str, **run: object) -> Scenario:
     """The scenario of TOML ``text`` with ``[run]`` keys replaced by ``run``."""
     data = tomllib.loads(text)

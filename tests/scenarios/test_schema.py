@@ -141,3 +141,47 @@ def test_load_toml(tmp_path):
         load_scenario(f)
     with pytest.raises(ScenarioError, match="not found"):
         load_scenario(tmp_path / "missing.toml")
+
+
+@pytest.mark.parametrize(
+    "path, value, key",
+    [
+        ("run.end_time", math.inf, "run.end_time"),
+        ("run.end_time", "inf s", "run.end_time"),  # not a number: named as unreadable
+        ("body.0.velocity", [math.nan, 0, 0], "body[0].velocity[0]"),
+        ("solver.gravity", [0, 0, -math.inf], "solver.gravity[2]"),
+        ("body.0.fiber.direction", [1, math.nan, 0], "body[0].fiber.direction[1]"),
+        ("body.0.fiber.angle", math.nan, "body[0].fiber.angle"),
+        ("grid.upper", [math.inf, 1, 1], "grid.upper[0]"),
+        ("body.0.shape.upper", ["8 mm", "8 mm", math.inf], "body[0].shape.upper[2]"),
+    ],
+)
+def test_non_finite_values_are_named_by_key_path(path, value, key):
+    """TOML has inf and nan; a quantity must be finite (end_time = inf ran until a particle left the grid)."""
+    with pytest.raises(ScenarioError) as info:
+        Scenario.from_dict(with_change(path, value))
+    msg = str(info.value)
+    assert f"{key}: " in msg, msg
+    if not isinstance(value, str):
+        assert "must be a finite number" in msg, msg
+
+
+def test_unreadable_scenario_files_are_named(tmp_path):
+    binary = tmp_path / "image.toml"
+    binary.write_bytes(b"\x89PNG\r\n\x1a\n\xff\xfe\x00")
+    with pytest.raises(ScenarioError, match=r"image.toml is not a text \(UTF-8\) file"):
+        load_scenario(binary)
+    with pytest.raises(ScenarioError, match="is a folder"):
+        load_scenario(tmp_path)
+
+
+def test_binary_scenario_through_the_cli_exits_2(tmp_path):
+    from typer.testing import CliRunner
+
+    from tissuempm.cli import app
+
+    binary = tmp_path / "s.toml"
+    binary.write_bytes(bytes(range(256)))
+    res = CliRunner().invoke(app, ["run", str(binary), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2 and "not a text (UTF-8) file" in " ".join(res.output.split())
+    assert not (tmp_path / "o").exists()

@@ -5,7 +5,7 @@ folder, then rename), so a crash never leaves a half-written file behind.
 """
 
 from tissuempm.io.checkpoint import CheckpointError, read_checkpoint, write_checkpoint
-from tissuempm.io.files import atomic_path, write_json
+from tissuempm.io.files import atomic_path, folder_problem, write_json
 from tissuempm.io.history import HistoryLog
 from tissuempm.io.vtu import VTUSeries, particle_fields, read_pvd, write_pvd
 
@@ -14,6 +14,7 @@ __all__ = [
     "HistoryLog",
     "VTUSeries",
     "atomic_path",
+    "folder_problem",
     "particle_fields",
     "read_checkpoint",
     "read_pvd",

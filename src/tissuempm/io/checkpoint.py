@@ -40,9 +40,15 @@ def read_checkpoint(path: str | Path) -> tuple[dict[str, Any], dict[str, Any]]:
     try:
         with h5py.File(path, "r") as f:
             if f.attrs.get("format") != FORMAT:
-                raise CheckpointError(f"{path} is not a tissuempm checkpoint")
+                raise CheckpointError(f"{path} is not a tissuempm checkpoint (no format attribute {FORMAT!r})")
+            if "meta" not in f.attrs or not isinstance(f.get("state"), h5py.Group):
+                raise CheckpointError(f"{path} is incomplete: it lacks the 'meta' attribute or the 'state' group")
             meta = json.loads(f.attrs["meta"])
-            arrays = {name: ds[()] for name, ds in f["state"].items()}
+            arrays = {name: ds[()] for name, ds in f["state"].items() if isinstance(ds, h5py.Dataset)}
     except OSError as e:
         raise CheckpointError(f"cannot read checkpoint {path}: {e}") from None
+    except (ValueError, TypeError) as e:  # meta is not JSON
+        raise CheckpointError(f"{path} has an unreadable 'meta' attribute: {e}") from None
+    if not isinstance(meta, dict):
+        raise CheckpointError(f"{path} has an unreadable 'meta' attribute: not a JSON object")
     return arrays, meta

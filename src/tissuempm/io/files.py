@@ -28,6 +28,23 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         tmp.unlink(missing_ok=True)
 
 
+def folder_problem(folder: str | Path) -> str | None:
+    """Why files cannot be written in ``folder`` (created when missing), or None when they can.
+
+    Looks at the folder or its nearest existing parent: a file there, or no write
+    permission, is a problem. Creates nothing.
+    """
+    folder = Path(folder)
+    existing = folder
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        return f"{existing} is a file" if existing == folder else f"it cannot be created: {existing} is a file"
+    if not os.access(existing, os.W_OK | os.X_OK):
+        return f"no permission to write in {existing}"
+    return None
+
+
 def _plain(value: Any) -> Any:
     if isinstance(value, dict):
         return {str(k): _plain(v) for k, v in value.items()}

@@ -54,12 +54,27 @@ class HistoryLog:
             w.writerow([repr(float(x)) if k != 1 else int(x) for k, x in enumerate(self.row(data))])
 
     def truncate(self, step: int) -> None:
-        """Keep the rows up to ``step`` (a restart rewrites the later ones)."""
+        """Keep the rows up to ``step`` (a restart rewrites the later ones).
+
+        A row that is not complete (no line end or too few columns: a run killed while
+        appending it) is dropped with the later ones: it was written after the checkpoint
+        the restart starts from.
+        """
         if not self.path.exists():
             return
-        with open(self.path, newline="") as f:
-            rows = list(csv.reader(f))
-        keep = [rows[0]] + [r for r in rows[1:] if int(r[1]) <= step]
+        with open(self.path, newline="", errors="replace") as f:
+            lines = f.readlines()
+        if lines and not lines[-1].endswith("\n"):
+            lines.pop()
+        rows = list(csv.reader(lines))
+        if not rows:
+            self.path.unlink()
+            return
+        keep = [rows[0]]
+        for r in rows[1:]:
+            if not (len(r) == len(rows[0]) and _is_step(r[1]) and int(r[1]) <= step):
+                break
+            keep.append(r)
         with atomic_path(self.path) as tmp, open(tmp, "w", newline="") as f:
             csv.writer(f).writerows(keep)
 
@@ -69,3 +84,7 @@ class HistoryLog:
             rows = list(csv.reader(f))
         values = np.array(rows[1:], dtype=float).reshape(-1, len(rows[0]))
         return {name: values[:, k] for k, name in enumerate(rows[0])}
+
+
+def _is_step(text: str) -> bool:
+    return text.strip().isdigit()

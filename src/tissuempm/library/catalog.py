@@ -14,6 +14,11 @@ A file (``.toml`` or ``.json``) holds either one entry (the format written by
 ``source``, ``notes``, ``density`` and a ``model`` table) or a table of shared
 parameter sets, ``[groups.<set>]``, with ``[[components]]`` naming their set,
 as the built-in files do (see ``docs/library.md``).
+
+A user file that cannot be read or parsed, holds an expression that cannot be
+evaluated (``"G / 0"``, ``"10.0 ** 400"``) or a parameter its law rejects is skipped
+with a warning naming the file and the problem; the other files still load.
+:func:`register` raises :class:`LibraryFileError` for such a file instead.
 """
 
 import copy
@@ -101,7 +106,7 @@ def _record_entry(record: dict[str, Any], shared: dict[str, Any], origin: str) -
         raise KeyError(f"entry {record['name']!r} has no density")
     density = float(density)
     alternatives = {k: _with_density(resolve(v, names), density) for k, v in record.get("alternatives", {}).items()}
-    return LibraryEntry(
+    entry = LibraryEntry(
         name=str(record["name"]),
         title=str(record.get("title", record["name"])),
         table=str(record.get("table", "user")),
@@ -119,6 +124,13 @@ def _record_entry(record: dict[str, Any], shared: dict[str, Any], origin: str) -
         aliases=tuple(record.get("aliases", ())),
         origin=origin,
     )
+    try:  # parameters out of range are a malformed file, found when it is read, not when the entry is used
+        entry.material
+        for label in entry.alternatives:
+            entry.alternative(label)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"entry {entry.name!r}: {exc.args[0] if exc.args else exc}") from None
+    return entry
 
 
 def _expression(value: Any) -> tuple[str, str]:

@@ -45,7 +45,21 @@ def evaluate(text: str, names: Mapping[str, Any]) -> Any:
         tree = ast.parse(text, mode="eval")
     except SyntaxError as exc:
         raise ExpressionError(f"malformed expression {text!r}: {exc.msg}") from None
-    return _eval(tree.body, names, text)
+    try:
+        value = _eval(tree.body, names, text)
+    except ExpressionError:
+        raise
+    except (ArithmeticError, ValueError, TypeError) as exc:  # G / 0, 10.0 ** 400, sqrt(-1), G + [1, 2]
+        raise ExpressionError(f"{text!r} cannot be evaluated: {exc.args[-1] if exc.args else exc}") from None
+    if not all(math.isfinite(v) for v in _numbers(value)):
+        raise ExpressionError(f"{text!r} evaluates to {value!r}: not a finite number")
+    return value
+
+
+def _numbers(value: Any) -> list[float]:
+    if isinstance(value, (list, tuple)):
+        return [x for v in value for x in _numbers(v)]
+    return [value] if isinstance(value, (int, float)) else []
 
 
 def _eval(node: ast.AST, names: Mapping[str, Any], text: str) -> Any:

@@ -124,6 +124,13 @@ def _unwrap(material: Material) -> Material:
     return material
 
 
+def has_closed_form(material: Material) -> bool:
+    """True when the (unwrapped) law has the incompressible closed form ``nominal_stress_incompressible``:
+    a hyperelastic law whose stability is a property of its parameter set (rigid drivers,
+    plastic laws and equations of state are False)."""
+    return isinstance(material, Material) and hasattr(_unwrap(material), "nominal_stress_incompressible")
+
+
 def _nominal(law: Material, mode: str, lam: np.ndarray, fiber: tuple[float, float, float]) -> tuple[np.ndarray, str]:
     if hasattr(law, "nominal_stress_incompressible"):
         return np.asarray(law.nominal_stress_incompressible(mode, lam), dtype=float), "incompressible closed form"

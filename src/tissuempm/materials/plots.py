@@ -1,6 +1,7 @@
 """Stress-strain plots of a material law (like Brewick et al. 2017 figs 13, 16, 19, 22, 25, 29, 32)."""
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -52,7 +53,10 @@ def plot_material(
     return output
 
 
-def _draw(fig, ax1, ax2, material: Material, eps: np.ndarray, lam: np.ndarray, rates, fiber, title: str) -> None:  # noqa: ANN001
+def _draw(
+    fig: Any, ax1: Any, ax2: Any, material: Material, eps: np.ndarray, lam: np.ndarray,
+    rates: tuple[float | None, ...], fiber: tuple[float, float, float], title: str,
+) -> None:
     """The two panels of :func:`plot_material`."""
     for rate in rates:
         res = stress_strain(material, "uniaxial", lam, rate=rate, fiber=fiber)

@@ -52,6 +52,7 @@ import warp as wp
 from tissuempm.mpm.config import Control, SolverConfig
 from tissuempm.mpm.errors import InstabilityError
 from tissuempm.mpm.implicit_kernels import implicit_kernels
+from tissuempm.mpm.kernels import SLOT
 from tissuempm.mpm.model import Model
 from tissuempm.mpm.solver import ExplicitSolver
 from tissuempm.mpm.state import State
@@ -153,8 +154,9 @@ class ImplicitSolver(ExplicitSolver):
         self.n_m, self.n_cm = zs(), zs()
         self.n_mv, self.n_ma, self.n_fb, self.n_cmv = zv(), zv(), zv(), zv()
         self.n_v, self.n_a, self.n_free, self.n_vc = zv(), zv(), zv(), zv()
-        self.n_u, self.n_fint, self.n_dv, self.n_vnew, self.n_anew = zv(), zv(), zv(), zv(), zv()
-        self.Kb = wp.zeros((0, self.ik.NB**3), dtype=t.mat33, device=dev)  # grown to the active nodes
+        self.n_u, self.n_dv, self.n_vnew, self.n_anew = zv(), zv(), zv(), zv()
+        self._K_chunks: list[wp.array] = []  # stiffness blocks per particle chunk (grown to the active nodes)
+        self._f_chunks: list[wp.array] = []
         self.n_row = wp.full(n, -1, dtype=int, device=dev)
         _, ny, nz = model.grid.node_shape
         sx, sy = ny * nz, nz
@@ -224,28 +226,46 @@ class ImplicitSolver(ExplicitSolver):
         self.n_u.assign(u.astype(self.t.numpy))
         self._fill(st, "bad", st.n)
         common = [self.origin, s(1.0 / self.h), self.dims]
-        for i, prm, kern in self._updates:
-            wp.launch(kern, dim=st.n, device=self.device, inputs=[
-                i, prm, st.x, st.size, st.F, self.n_u, st.material, st.fiber, st.history, st.history_next, *common,
-                s(dt), self._F, self._L, self._sig, self._c, st.bad])  # fmt: skip
+
+        def update(c: int, b: int, e: int) -> None:
+            for i, prm, kern in self._updates:
+                self._launch(kern, e - b, [
+                    i, prm, st.x, st.size, st.F, self.n_u, st.material, st.fiber, st.history, st.history_next, *common,
+                    s(dt), self._F, self._L, self._sig, self._c, st.bad, b, c * SLOT], c)  # fmt: skip
+
+        def assemble(c: int, b: int, e: int) -> None:
+            f, Kb = self._f_chunks[c], self._K_chunks[c]
+            f.zero_()
+            if stiffness:
+                Kb.zero_()
+            self._launch(self.ik.assemble, e - b, [
+                st.x, st.size, st.F, self._F, self._sig, self._c, st.volume0, st.material, self.mat_rigid, *common,
+                int(stiffness), f, self.n_row, Kb, b], ("assemble", c))  # fmt: skip
+
+        self._parallel([lambda c=c, b=b, e=e: update(c, b, e) for c, (b, e) in enumerate(st.chunks)])
         bad = int(self._slots(st, "bad").min())
         if bad < st.n:
             x = st.x.numpy()[bad].astype(float)
             raise NotConverged(f"particle {int(st.id.numpy()[bad])} at {x.tolist()} inverted or its stress is not finite", x)
-        self.n_fint.zero_()
-        if stiffness:
-            self.Kb.zero_()
-        wp.launch(self.ik.assemble, dim=st.n, device=self.device, inputs=[
-            st.x, st.size, st.F, self._F, self._sig, self._c, st.volume0, st.material, self.mat_rigid, *common,
-            int(stiffness), self.n_fint, self.n_row, self.Kb])  # fmt: skip
-        f_int = np.array(self.n_fint.numpy(), dtype=float)  # a copy: the next call overwrites the array
-        return f_int, (np.asarray(self.Kb.numpy(), dtype=float) if stiffness else None)  # a view, used at once
+        self._parallel([lambda c=c, b=b, e=e: assemble(c, b, e) for c, (b, e) in enumerate(st.chunks)])
+        f_int = sum(np.asarray(f.numpy(), dtype=float) for f in self._f_chunks[: len(st.chunks)])
+        if not stiffness:
+            return f_int, None
+        K = np.asarray(self._K_chunks[0].numpy(), dtype=float)  # a view, used at once
+        for Kc in self._K_chunks[1 : len(st.chunks)]:
+            K = K + Kc.numpy()
+        return f_int, K
 
-    def _stiffness_rows(self, act: np.ndarray, idx: np.ndarray) -> None:
-        """Store the stiffness rows of the active nodes ``act`` (``idx``: node -> row or -1)."""
+    def _stiffness_rows(self, act: np.ndarray, idx: np.ndarray, n_chunks: int = 1) -> None:
+        """Store the stiffness rows of the active nodes ``act`` (``idx``: node -> row or -1), one
+        block array and force array per particle chunk."""
         self.n_row.assign(idx)
-        if self.Kb.shape[0] < act.size:
-            self.Kb = wp.zeros((int(1.25 * act.size) + 1, self.ik.NB**3), dtype=self.t.mat33, device=self.device)
+        rows = self._K_chunks[0].shape[0] if self._K_chunks else -1
+        if rows < act.size or len(self._K_chunks) < n_chunks:
+            rows = max(rows, int(1.25 * act.size) + 1)
+            z = lambda shape, dtype: wp.zeros(shape, dtype=dtype, device=self.device)  # noqa: E731
+            self._K_chunks = [z((rows, self.ik.NB**3), self.t.mat33) for _ in range(n_chunks)]
+            self._f_chunks = [z(self.n_nodes, self.t.vec3) for _ in range(n_chunks)]
 
     def _matrix(self, blocks: np.ndarray, act: np.ndarray, idx: np.ndarray) -> sp.csr_matrix:
         """Global stiffness of the active nodes from their blocks (BSR, then CSR)."""
@@ -280,7 +300,7 @@ class ImplicitSolver(ExplicitSolver):
         act = np.flatnonzero(m > st.min_node_mass)
         idx = np.full(n, -1, dtype=np.int64)
         idx[act] = np.arange(act.size)
-        self._stiffness_rows(act, idx)
+        self._stiffness_rows(act, idx, len(st.chunks))
         free = nd["free"][act].astype(bool).ravel()  # active dofs, node-major
         g = np.array([self._gravity[0], self._gravity[1], self._gravity[2]], dtype=float)
         f_ext = (m[:, None] * g + nd["fb"])[act].ravel()

@@ -135,9 +135,10 @@ def implicit_kernels(t: WarpTypes, shape: str) -> Any:
             F_n: wp.array(dtype=mat33), u: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32),
             fiber: wp.array(dtype=vec3), s_in: wp.array2d(dtype=s), s_out: wp.array2d(dtype=s), origin: vec3,
             inv_h: s, dims: wp.vec3i, dt: s, F_out: wp.array(dtype=mat33), L_out: wp.array(dtype=mat33),
-            sig_out: wp.array(dtype=mat33), c_out: wp.array(dtype=M66), bad: wp.array(dtype=int),
+            sig_out: wp.array(dtype=mat33), c_out: wp.array(dtype=M66), bad: wp.array(dtype=int), begin: int,
+            c: int,
         ):  # fmt: skip
-            p = wp.tid()
+            p = begin + wp.tid()
             if material[p] != mat_id:
                 return
             nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(x[p], p, size, F_n, origin, inv_h, dims, 0)
@@ -151,17 +152,17 @@ def implicit_kernels(t: WarpTypes, shape: str) -> Any:
             F_out[p] = Fp
             L_out[p] = Lp
             if not (J > s(0.0)):
-                wp.atomic_min(bad, 0, p)
+                wp.atomic_min(bad, c, p)
                 sig_out[p] = mat33()
                 c_out[p] = M66()
                 return
             a0 = fiber[p]
-            c = tangent_fn(Fp, Lp, a0, prm, s_in, s_out, p, dt)
+            cp = tangent_fn(Fp, Lp, a0, prm, s_in, s_out, p, dt)
             sig = stress_fn(Fp, Lp, a0, prm, s_in, s_out, p, dt)
             if not (wp.isfinite(wp.ddot(sig, sig))):
-                wp.atomic_min(bad, 0, p)
+                wp.atomic_min(bad, c, p)
             sig_out[p] = sig
-            c_out[p] = c
+            c_out[p] = cp
 
         return law_update
 
@@ -171,13 +172,14 @@ def implicit_kernels(t: WarpTypes, shape: str) -> Any:
         F_new: wp.array(dtype=mat33), sig: wp.array(dtype=mat33), cv: wp.array(dtype=M66),
         vol0: wp.array(dtype=s), material: wp.array(dtype=wp.int32), mat_rigid: wp.array(dtype=wp.int32),
         origin: vec3, inv_h: s, dims: wp.vec3i, stiffness: int, f_int: wp.array(dtype=vec3),
-        row: wp.array(dtype=int), Kb: wp.array2d(dtype=mat33),
+        row: wp.array(dtype=int), Kb: wp.array2d(dtype=mat33), begin: int,
     ):  # fmt: skip
         """Internal force f_i = sum_p V_p sigma_p grad S_ip and (``stiffness`` != 0) the tangent
         blocks K_ab = sum_p V_p [c_ijkl (grad S_a)_j (grad S_b)_l + (grad S_a . sigma grad S_b) delta_ik],
         V = V_0 J, grad S = F_inc^-T grad_n S, F_inc = F F_n^-1 (Bonet & Wood 2008, eq. 9.35); the
-        blocks of node n go to row ``row[n]`` of ``Kb`` (the active nodes only; -1: not stored)."""
-        p = wp.tid()
+        blocks of node n go to row ``row[n]`` of ``Kb`` (the active nodes only; -1: not stored).
+        Particles ``begin + tid``: CPU chunks assemble into private ``f_int`` and ``Kb`` in parallel."""
+        p = begin + wp.tid()
         if mat_rigid[material[p]] != 0:
             return
         Fp = F_new[p]

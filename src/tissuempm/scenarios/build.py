@@ -18,8 +18,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tissuempm.mpm import Control, Grid, GridBoundary, Model, ParticleData, SolverConfig
+from tissuempm.mpm import Control, Grid, GridBoundary, ImplicitConfig, Model, ParticleData, SolverConfig
 from tissuempm.scenarios.amplitude import Amplitude
+from tissuempm.scenarios.checks import check_bodies, check_size
 from tissuempm.scenarios.geometry import Shape, UniformFiber, Union, seed
 from tissuempm.scenarios.schema import Scenario, ScenarioError
 
@@ -124,7 +125,19 @@ def solver_config(scenario: Scenario, device: str = "cpu") -> SolverConfig:
         gravity=s.gravity if start.gravity is None else start.gravity,
         damping=s.damping,
         dt_max=s.dt_max,
+        grid=s.grid,
+        reset_distance=s.reset_distance,
+        reset_interval=s.reset_interval,
     )
+
+
+def implicit_config(scenario: Scenario) -> ImplicitConfig | None:
+    """The :class:`ImplicitConfig` of ``[solver.implicit]`` (None for the explicit integrator)."""
+    im = scenario.solver.implicit
+    if scenario.solver.integrator != "implicit" or im is None:
+        return None
+    return ImplicitConfig(dt=im.dt, dynamic=im.dynamic, tolerance=im.tolerance, max_iterations=im.max_iterations,
+                          dt_min=im.dt_min, linear_solver=im.linear_solver)  # fmt: skip
 
 
 def build_model(scenario: Scenario) -> Model:
@@ -178,7 +191,13 @@ def seed_particles(scenario: Scenario, model: Model) -> tuple[ParticleData, np.n
 
 
 def build(scenario: Scenario, device: str = "cpu") -> Problem:
-    """Everything the solver needs to run ``scenario`` on ``device``."""
+    """Everything the solver needs to run ``scenario`` on ``device``.
+
+    Before anything is allocated, the bodies must lie inside the grid and the run must fit
+    (:func:`~tissuempm.scenarios.checks.check_bodies`, :func:`~tissuempm.scenarios.checks.check_size`).
+    """
+    check_bodies(scenario)
+    check_size(scenario, device)
     model = build_model(scenario)
     particles, body = seed_particles(scenario, model)
     return Problem(solver_config(scenario, device), model, particles, list(scenario.materials), body, loading(scenario))

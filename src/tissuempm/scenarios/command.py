@@ -6,14 +6,22 @@ from typing import Annotated
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, ProgressColumn, Task, TextColumn, TimeElapsedColumn
 from rich.text import Text
 
 from tissuempm.io import CheckpointError
-from tissuempm.scenarios import runner
+from tissuempm.scenarios import run_folder, runner
+from tissuempm.scenarios.run_folder import OutputFolderError
 from tissuempm.scenarios.schema import ScenarioError, load_scenario
 
 console = Console(stderr=True)
+
+
+def _fail(error: Exception | str) -> typer.Exit:
+    """Print ``error`` (its text verbatim: ``[run]`` is no markup) and return the exit of status 2 to raise."""
+    console.print(f"[red]error:[/red] {escape(str(error))}", highlight=False)
+    return typer.Exit(2)
 
 
 def _si_time(t: float) -> str:
@@ -53,25 +61,30 @@ def run(
     ] = None,
     device: Annotated[str, typer.Option("--device", help="cpu or cuda.")] = "cpu",
     restart: Annotated[bool, typer.Option("--restart", help="Continue from the last checkpoint in the output folder.")] = False,
+    overwrite: Annotated[
+        bool, typer.Option("--overwrite", help="Replace the run in the output folder (its frames, checkpoint, ...).")
+    ] = False,
     overrides: Annotated[
         list[str] | None,
         typer.Option("--set", help="Override a key: --set solver.cfl=0.1 --set 'body[0].velocity=[0, \"150 m/s\", 0]'."),
     ] = None,
 ) -> None:
-    """Run an MPM scenario: VTU frames + .pvd for ParaView, HDF5 checkpoints and summary.json."""
+    """Run an MPM scenario: VTU frames + .pvd for ParaView, HDF5 checkpoints and summary.json.
+
+    A folder holding another run is refused unless --overwrite (or --restart to continue it).
+    """
     try:
         sc = load_scenario(scenario, overrides)
-    except ScenarioError as e:
-        console.print(f"[red]error:[/red] {e}", markup=True, highlight=False)
-        raise typer.Exit(2) from None
-    out_dir = out if out is not None else default_out(scenario, sc.run.output)
-    try:
+        out_dir = out if out is not None else default_out(scenario, sc.run.output)
+        run_folder.check(out_dir, restart=restart, overwrite=overwrite)  # before the (slow) build
         job = runner.Runner(sc, out_dir, device=device)
-    except (ScenarioError, ValueError) as e:
-        console.print(f"[red]error:[/red] {e}", highlight=False)
-        raise typer.Exit(2) from None
+    except (ScenarioError, CheckpointError, ValueError) as e:
+        raise _fail(e) from None
     n = job.problem.particles.n
-    console.print(f"[bold]{sc.name}[/bold]: {n} particles, grid {job.problem.model.grid.shape} cells, output {out_dir}")
+    console.print(f"[bold]{escape(sc.name)}[/bold]: {n} particles, grid {job.problem.model.grid.shape} cells, "
+                  f"output {escape(str(out_dir))}")
+    for warning in job.warnings:
+        console.print(f"[yellow]warning:[/yellow] {escape(warning)}", highlight=False)
 
     columns = (
         TextColumn("[progress.description]{task.description}"),
@@ -98,17 +111,18 @@ def run(
                     fields["rate"] = (p.time - last["t0"]) / (now - last["clock0"])
                 bar.update(task, completed=min(p.time, p.end_time), **fields)
 
-            result = job.run(restart=restart, progress=show)
-    except CheckpointError as e:
-        console.print(f"[red]error:[/red] {e}", highlight=False)
-        raise typer.Exit(2) from None
+            result = job.run(restart=restart, progress=show, overwrite=overwrite)
+    except (CheckpointError, OutputFolderError) as e:
+        raise _fail(e) from None
+    except OSError as e:  # the folder became unwritable or the disk is full while running
+        raise _fail(f"cannot write the output in {out_dir}: {e}; the last complete checkpoint is kept") from None
     except KeyboardInterrupt:
-        console.print(f"[yellow]interrupted[/yellow]: continue with --restart (checkpoint in {out_dir})")
+        console.print(f"[yellow]interrupted[/yellow]: continue with --restart (checkpoint in {escape(str(out_dir))})")
         raise typer.Exit(130) from None
 
     s = result.summary
     if result.status == "unstable":
-        console.print(f"[red]stopped, the run went unstable:[/red] {result.message}", highlight=False)
+        console.print(f"[red]stopped, the run went unstable:[/red] {escape(result.message)}", highlight=False)
         console.print(
             f"last checkpoint at t = {_si_time(s['checkpoint']['time'])} (step {s['checkpoint']['step']}) "
             f"kept in {out_dir / runner.CHECKPOINT}"

@@ -24,6 +24,7 @@ Example
 ((200, 3), 2.5e-05)
 """
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,10 +41,11 @@ def _points(x: np.ndarray) -> np.ndarray:
 
 def _unit(v: Vec3, name: str) -> np.ndarray:
     a = np.asarray(v, dtype=float)
-    norm = float(np.linalg.norm(a))
-    if a.shape != (3,) or not np.isfinite(norm) or norm == 0.0:
+    scale = float(np.max(np.abs(a))) if a.shape == (3,) else 0.0  # scaled first: |a| of 1e300 components
+    if not np.isfinite(scale) or scale == 0.0:
         raise ValueError(f"{name} = {v!r} must be a non-zero 3-vector")
-    return a / norm
+    a = a / scale
+    return a / np.linalg.norm(a)
 
 
 class Shape:
@@ -90,7 +92,8 @@ class Sphere(Shape):
 
     def contains(self, x: np.ndarray) -> np.ndarray:
         d = _points(x) - np.asarray(self.center, float)
-        return np.einsum("ij,ij->i", d, d) <= self.radius**2
+        with np.errstate(over="ignore"):  # a radius near the float limit: r^2 = inf holds every point
+            return np.einsum("ij,ij->i", d, d) <= np.float64(self.radius) ** 2
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         c = np.asarray(self.center, float)
@@ -118,8 +121,9 @@ class Cylinder(Shape):
         axis = axis / length
         d = _points(x) - a
         t = d @ axis
-        r2 = np.einsum("ij,ij->i", d, d) - t**2
-        return (t >= 0.0) & (t <= length) & (r2 <= self.radius**2)
+        with np.errstate(over="ignore", invalid="ignore"):  # extents near the float limit
+            r2 = np.einsum("ij,ij->i", d, d) - t**2
+            return (t >= 0.0) & (t <= length) & (r2 <= np.float64(self.radius) ** 2)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         a, b = np.asarray(self.start, float), np.asarray(self.end, float)
@@ -169,6 +173,42 @@ class Difference(Shape):
         return self.base.bounds()
 
 
+Range = tuple[int, int]
+"""Sub-cell indices ``start <= j < stop`` along one axis; index j is the point ``origin + (j + 1/2) h / n``."""
+
+
+def lattice_ranges(
+    lower: np.ndarray,
+    upper: np.ndarray,
+    origin: Vec3,
+    cell_size: float,
+    per_cell: int,
+    cells: tuple[int, int, int] | None = None,
+) -> list[Range]:
+    """Sub-cell index ranges, per axis, of the grid cells overlapping the box ``[lower, upper]``.
+
+    With ``cells`` (the grid's cells per direction from ``origin``) only cells of the
+    grid are used; without, the lattice continues beyond the grid's faces. Python
+    integers: a box of any finite size has a range, however many points it spans.
+    Raises ``OverflowError`` when a bound is so far from the grid that the cell index is
+    not finite.
+    """
+    out = []
+    for k in range(3):
+        c0 = math.floor((float(lower[k]) - origin[k]) / cell_size)
+        c1 = math.ceil((float(upper[k]) - origin[k]) / cell_size)
+        if cells is not None:
+            c0, c1 = min(max(c0, 0), cells[k]), min(max(c1, 0), cells[k])
+        out.append((c0 * per_cell, c1 * per_cell))
+    return out
+
+
+def _coordinates(r: Range, origin: float, sub: float, stride: int = 1) -> np.ndarray:
+    """Coordinates of the indices of ``r`` (every ``stride``-th, from the middle of the first block)."""
+    start, stop = r
+    return origin + (np.arange(start + (min(stride, stop - start) - 1) // 2, stop, stride) + 0.5) * sub
+
+
 def lattice(
     lower: np.ndarray, upper: np.ndarray, origin: Vec3, cell_size: float, cells: tuple[int, int, int], per_cell: int
 ) -> np.ndarray:
@@ -177,16 +217,47 @@ def lattice(
     Only cells of the grid (``cells`` cells from ``origin``) are used, so no point
     lies outside the grid.
     """
-    o = np.asarray(origin, float)
-    n_cells = np.asarray(cells, int)
-    c0 = np.clip(np.floor((lower - o) / cell_size).astype(int), 0, n_cells)
-    c1 = np.clip(np.ceil((upper - o) / cell_size).astype(int), 0, n_cells)
-    sub = cell_size / per_cell
-    axes = [o[k] + (np.arange(c0[k] * per_cell, c1[k] * per_cell) + 0.5) * sub for k in range(3)]
+    ranges = lattice_ranges(lower, upper, origin, cell_size, per_cell, cells)
+    axes = [_coordinates(r, origin[k], cell_size / per_cell) for k, r in enumerate(ranges)]
     if any(len(a) == 0 for a in axes):
         return np.zeros((0, 3))
     gx, gy, gz = np.meshgrid(*axes, indexing="ij")
     return np.stack([gx.ravel(), gy.ravel(), gz.ravel()], axis=1)
+
+
+def count_inside(
+    shape: Shape, ranges: list[Range], origin: Vec3, sub: float, max_points: int = 1_000_000
+) -> tuple[float, bool]:
+    """Number of points of the lattice ``ranges`` (spacing ``sub`` from ``origin``) inside ``shape``.
+
+    Exact (``(count, True)``) when the lattice has at most ``max_points`` points;
+    otherwise each axis k is sampled with a stride s_k, taking the middle point of every
+    block of s_k indices, so that at most ``max_points`` points are tested, and each
+    sample counts for the points it stands for (``(estimate, False)``): with ``n_k``
+    indices on axis k of which ``m_k`` are sampled, a sample weighs ``prod_k n_k / m_k``.
+    The strides share the budget evenly over the axes, an axis with fewer points than its
+    share keeping them all. Points are tested in blocks, so memory stays bounded.
+    """
+    sizes = [max(0, b - a) for a, b in ranges]
+    if 0 in sizes:
+        return 0.0, True
+    strides = [1, 1, 1]
+    if math.prod(sizes) > max_points:
+        budget = float(max_points)
+        order = sorted(range(3), key=lambda k: sizes[k])
+        for i, k in enumerate(order):
+            take = max(1, min(sizes[k], math.floor(budget ** (1.0 / (3 - i)))))
+            strides[k] = math.ceil(sizes[k] / take)
+            budget /= take
+    axes = [_coordinates(r, origin[k], sub, strides[k]) for k, r in enumerate(ranges)]
+    weight = math.prod(n / len(a) for n, a in zip(sizes, axes))
+    ax, ay, az = axes
+    rows = max(1, 1_000_000 // (len(ay) * len(az)))
+    count = 0
+    for i in range(0, len(ax), rows):
+        gx, gy, gz = np.meshgrid(ax[i : i + rows], ay, az, indexing="ij")
+        count += int(np.count_nonzero(shape.contains(np.stack([gx.ravel(), gy.ravel(), gz.ravel()], axis=1))))
+    return count * weight, strides == [1, 1, 1]
 
 
 def seed(
@@ -224,8 +295,9 @@ def seed(
     if exclude is not None and len(x):
         keep &= ~exclude.contains(x)
     x = x[keep]
-    sub = cell_size / per_cell
-    return x, np.full(len(x), sub**3), np.full((len(x), 3), sub)
+    sub = np.float64(cell_size) / per_cell
+    with np.errstate(over="ignore"):  # an absurd cell size gives inf volumes, which ParticleData refuses
+        return x, np.full(len(x), sub**3), np.full((len(x), 3), sub)
 
 
 # ---------------------------------------------------------------------------- fiber fields

@@ -13,10 +13,14 @@ A frame is written at the first step reaching each multiple of
 ``run.output_interval`` and a checkpoint at each multiple of
 ``run.checkpoint_interval`` (both at time 0 too, and both at the end).
 
+A new run refuses a folder that holds another run unless ``overwrite=True``, which
+first removes the old run's files (:mod:`tissuempm.scenarios.run_folder`).
+
 Restart (``restart=True``) reads ``checkpoint.h5``, checks that it belongs to the
 same physical problem (a hash of every section except ``[run]``, so a run may be
-extended by raising ``run.end_time``), drops the frames written after it and
-continues. The checkpoint holds the complete particle state and the loop's
+extended by raising ``run.end_time``, and a hash of each material's resolved
+parameters, so an edited or overridden library entry is caught), drops the frames
+written after it and continues. The checkpoint holds the complete particle state and the loop's
 counters, and the step is a deterministic function of the state (amplitude-scaled
 loads, :class:`~tissuempm.scenarios.build.Loading`, are evaluated at the middle of
 each step from its time and time step), so a restarted run ends in the same state
@@ -48,13 +52,12 @@ from tissuempm.io import (
     write_checkpoint,
     write_json,
 )
-from tissuempm.mpm import ExplicitSolver, InstabilityError, State
-from tissuempm.scenarios.build import Problem, build
+from tissuempm.mpm import ExplicitSolver, ImplicitSolver, InstabilityError, State
+from tissuempm.scenarios import run_folder
+from tissuempm.scenarios.build import Problem, build, implicit_config
+from tissuempm.scenarios.checks import check_device, stability_warnings
+from tissuempm.scenarios.run_folder import CHECKPOINT, HISTORY, SCENARIO, SERIES, SUMMARY
 from tissuempm.scenarios.schema import Scenario
-
-CHECKPOINT = "checkpoint.h5"
-SUMMARY = "summary.json"
-HISTORY = "history.csv"
 
 
 @dataclass
@@ -93,6 +96,14 @@ def problem_hash(scenario: Scenario) -> str:
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
 
 
+def material_hashes(scenario: Scenario) -> dict[str, str]:
+    """Hash of each material's resolved parameters (``to_dict()``, library entries resolved), by name."""
+    return {
+        name: hashlib.sha256(json.dumps(m.to_dict(), sort_keys=True, default=repr).encode()).hexdigest()[:16]
+        for name, m in zip(scenario.materials, scenario.build_materials())
+    }
+
+
 def _next_multiple(t: float, interval: float) -> float:
     """The first multiple of ``interval`` strictly after ``t`` (with a relative tolerance)."""
     k = math.floor(t / interval * (1.0 + 1e-12) + 1e-12) + 1
@@ -109,15 +120,25 @@ class Runner:
     out
         Output folder (created).
     device
-        ``"cpu"`` or ``"cuda"``.
+        ``"cpu"``, ``"cuda"`` or ``"cuda:N"`` (``ValueError`` when Warp finds no such device).
+
+    ``warnings`` lists the materials whose hyperelastic parameter set is not
+    Drucker-stable (:func:`~tissuempm.scenarios.checks.stability_warnings`).
     """
 
     def __init__(self, scenario: Scenario, out: str | Path, device: str = "cpu"):
         self.scenario = scenario
         self.out = Path(out)
         self.device = device
+        check_device(device)
         self.problem: Problem = build(scenario, device)
-        self.solver = ExplicitSolver(self.problem.model, self.problem.config)
+        self.warnings = stability_warnings(scenario)
+        implicit = implicit_config(scenario)
+        self.solver = (
+            ExplicitSolver(self.problem.model, self.problem.config)
+            if implicit is None
+            else ImplicitSolver(self.problem.model, self.problem.config, implicit)
+        )
         self.materials = self.problem.model.materials
 
     # ------------------------------------------------------------------ output
@@ -130,6 +151,7 @@ class Runner:
     def _checkpoint(self, data: dict[str, Any]) -> None:
         meta = {
             "problem_hash": problem_hash(self.scenario),
+            "materials": material_hashes(self.scenario),
             "version": __version__,
             "time": float(data["time"]),
             "step": int(data["step"]),
@@ -142,29 +164,57 @@ class Runner:
     def _wall(self) -> float:
         return self.wall_before + wallclock.perf_counter() - self.clock0
 
-    def _resume(self) -> State:
-        arrays, meta = read_checkpoint(self.out / CHECKPOINT)
+    def _check_problem(self, meta: dict[str, Any]) -> None:
+        """Raise :class:`CheckpointError` unless the checkpoint's ``meta`` belongs to this problem."""
+        path = self.out / CHECKPOINT
         if meta.get("problem_hash") != problem_hash(self.scenario):
             raise CheckpointError(
-                f"{self.out / CHECKPOINT} belongs to a different scenario (only [run] may change for a restart)"
+                f"{path} belongs to a different scenario: for a restart only the [run] section may change "
+                "(e.g. run.end_time to extend a run); start a new run with --overwrite or another --out"
             )
-        state = State.from_numpy(self.solver, arrays)
-        self.series.frames = [(float(t), str(f)) for t, f in meta["frames"]]
-        self.series.truncate(len(self.series.frames))
-        self.history.truncate(int(meta["step"]))
-        self.wall_before = float(meta.get("wall_s", 0.0))
-        self.checkpoint_at = (float(meta["time"]), int(meta["step"]))
+        saved, now = meta.get("materials"), material_hashes(self.scenario)
+        if not isinstance(saved, dict):
+            raise CheckpointError(f"{path} holds no record of its materials (written by an older tissuempm), so a "
+                                  "restart cannot check them; start a new run with --overwrite")
+        for name in [n for n in now if saved.get(n) != now[n]]:
+            library = self.scenario.materials[name].get("library")
+            why = (f"the library entry {library!r} it names was edited or is overridden by a user file since the run "
+                   "started" if library else "its parameters changed")
+            raise CheckpointError(
+                f"{path} was written with other parameters of material {name!r}: {why}; a restart must use the "
+                "same materials: restore them or start a new run with --overwrite"
+            )
+
+    def _resume(self) -> State:
+        arrays, meta = read_checkpoint(self.out / CHECKPOINT)
+        self._check_problem(meta)
+        try:
+            state = State.from_numpy(self.solver, arrays)
+            frames = [(float(t), str(f)) for t, f in meta["frames"]]
+            step, time, wall = int(meta["step"]), float(meta["time"]), float(meta.get("wall_s", 0.0))
+        except (KeyError, ValueError, TypeError, IndexError) as e:
+            raise CheckpointError(f"{self.out / CHECKPOINT} is not a complete checkpoint of this run: {e}") from None
+        self.series.frames = frames
+        self.series.truncate(len(frames))
+        self.history.truncate(step)
+        self.wall_before = wall
+        self.checkpoint_at = (time, step)
         return state
 
     # ------------------------------------------------------------------ loop
-    def run(self, restart: bool = False, progress: Callable[[Progress], None] | None = None) -> RunResult:
+    def run(
+        self, restart: bool = False, progress: Callable[[Progress], None] | None = None, overwrite: bool = False
+    ) -> RunResult:
         """Run to ``run.end_time`` (or ``run.max_steps``); see the module docstring.
 
-        Raises :class:`~tissuempm.io.CheckpointError` when ``restart`` finds no usable checkpoint.
+        Raises :class:`~tissuempm.io.CheckpointError` when ``restart`` finds no usable checkpoint
+        and :class:`~tissuempm.scenarios.run_folder.OutputFolderError` when the output folder
+        cannot take the run (a file, not writable, or holding another run without ``overwrite``);
+        in both cases nothing is created or changed.
         """
         run = self.scenario.run
-        self.out.mkdir(parents=True, exist_ok=True)
-        self.series = VTUSeries(self.out)
+        run_folder.check(self.out, restart=restart, overwrite=overwrite)
+        self.series = VTUSeries(self.out, SERIES)
         rigid = {i: n for i, n in enumerate(self.problem.material_names) if self.problem.model.is_rigid(i)}
         self.history = HistoryLog(self.out / HISTORY, rigid)
         self.clock0, self.wall_before = wallclock.perf_counter(), 0.0
@@ -172,15 +222,14 @@ class Runner:
             state = self._resume()
             restarted_from: float | None = state.time
         else:
-            for stale in (self.out / HISTORY, self.out / SUMMARY):
-                stale.unlink(missing_ok=True)
-            self.series.truncate(0)
+            self.out.mkdir(parents=True, exist_ok=True)
+            run_folder.clear(self.out)
             state = self.solver.initial_state(self.problem.particles)
             restarted_from = None
             data = state.to_numpy()
             self._write_frame(data)
             self._checkpoint(data)
-        write_json(self.out / "scenario.json", self.scenario.model_dump(mode="json", by_alias=True))
+        write_json(self.out / SCENARIO, self.scenario.model_dump(mode="json", by_alias=True))
 
         next_frame = _next_multiple(state.time, run.frame_interval)
         next_ckpt = _next_multiple(state.time, run.checkpoint_every)
@@ -250,6 +299,7 @@ class Runner:
             "steps_per_s": steps_here / wall if wall > 0 else None,
             "particle_steps_per_s": n * steps_here / wall if wall > 0 else None,
             "restarted_from": restarted_from,
+            "warnings": self.warnings,
             "device": cfg.device,
             "precision": cfg.precision,
             "threads": cfg.n_threads,

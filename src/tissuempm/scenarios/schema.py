@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from pydantic import (
+    AfterValidator,
     BaseModel,
     BeforeValidator,
     ConfigDict,
@@ -44,9 +45,15 @@ class ScenarioError(ValueError):
     """A scenario file is unreadable, has unknown keys or holds values out of range."""
 
 
+def _finite(value: float) -> float:
+    if not math.isfinite(value):
+        raise ValueError("must be a finite number")
+    return value
+
+
 def quantity(unit: str) -> Any:
-    """A float field accepting SI numbers or strings with units of the dimension of ``unit``."""
-    return Annotated[float, BeforeValidator(lambda v: parse_quantity(v, unit))]
+    """A finite float field accepting SI numbers or strings with units of the dimension of ``unit``."""
+    return Annotated[float, BeforeValidator(lambda v: parse_quantity(v, unit)), AfterValidator(_finite)]
 
 
 Length = quantity("m")
@@ -153,8 +160,32 @@ AmplitudeRef = Annotated[
 # ---------------------------------------------------------------------------- [solver]
 
 
+class ImplicitSection(Section):
+    """``[solver.implicit]``: the implicit integrator (:class:`tissuempm.mpm.ImplicitConfig`)."""
+
+    dt: Annotated[Time, Field(gt=0.0)]
+    dynamic: bool = True
+    tolerance: Annotated[float, Field(gt=0.0, lt=1.0)] = 1.0e-6
+    max_iterations: Annotated[int, Field(ge=1, le=1000)] = 25
+    dt_min: Annotated[Time, Field(gt=0.0)] | None = None
+    linear_solver: Literal["auto", "direct", "cg"] = "auto"
+
+    @model_validator(mode="after")
+    def _dt_min(self) -> "ImplicitSection":
+        if self.dt_min is not None and self.dt_min > self.dt:
+            raise ValueError(f"dt_min = {self.dt_min:g} s must not exceed dt = {self.dt:g} s")
+        return self
+
+
 class SolverSection(Section):
-    """``[solver]``: the explicit MPM settings (:class:`tissuempm.mpm.SolverConfig`)."""
+    """``[solver]``: the MPM settings (:class:`tissuempm.mpm.SolverConfig`; with
+    ``integrator = "implicit"`` also :class:`tissuempm.mpm.ImplicitConfig` from ``[solver.implicit]``)."""
+
+    integrator: Literal["explicit", "implicit"] = "explicit"
+    grid: Literal["reset", "no_reset"] = "reset"
+    reset_distance: Annotated[float, Field(gt=0.0)] | None = None
+    reset_interval: Annotated[int, Field(ge=1)] | None = None
+    implicit: ImplicitSection | None = None
 
     shape: Literal["gimp", "cpgimp", "linear", "bspline"] = "gimp"
     transfer: Literal["usl", "musl", "usf"] = "musl"
@@ -166,6 +197,20 @@ class SolverSection(Section):
     gravity_amplitude: AmplitudeRef | None = None
     damping: Annotated[quantity("1/s"), Field(ge=0.0)] = 0.0
     dt_max: Annotated[Time, Field(gt=0.0)] | None = None
+
+    @model_validator(mode="after")
+    def _integrator(self) -> "SolverSection":
+        if self.integrator == "implicit" and self.implicit is None:
+            raise ValueError("integrator = 'implicit' needs a [solver.implicit] table with at least dt (the time step)")
+        if self.integrator == "explicit" and self.implicit is not None:
+            raise ValueError("[solver.implicit] is given but integrator = 'explicit': set integrator = 'implicit' or drop it")
+        if self.grid == "no_reset" and self.integrator == "implicit":
+            raise ValueError("grid = 'no_reset' is available with integrator = 'explicit' only")
+        if self.grid == "no_reset" and self.shape == "cpgimp":
+            raise ValueError("grid = 'no_reset' needs shape 'gimp', 'linear' or 'bspline', not 'cpgimp'")
+        if self.grid == "reset" and (self.reset_distance is not None or self.reset_interval is not None):
+            raise ValueError("reset_distance and reset_interval apply to grid = 'no_reset' only")
+        return self
 
 
 # ---------------------------------------------------------------------------- [grid], [[boundary]]
@@ -183,6 +228,9 @@ class GridSection(Section):
         for k, (a, b) in enumerate(zip(self.lower, self.upper)):
             if not b > a:
                 raise ValueError(f"grid.upper[{k}] = {b:g} m must exceed grid.lower[{k}] = {a:g} m")
+            if not (b - a) / self.cell_size < 2e8:  # also catches an extent that overflows to inf
+                raise ValueError(f"grid spans {b - a:g} m along axis {k}: more than 2e8 cells of "
+                                 f"{self.cell_size:g} m: increase grid.cell_size")
         if math.prod(self.cells) > 200_000_000:
             raise ValueError(f"grid has {math.prod(self.cells)} cells (> 2e8): increase grid.cell_size")
         return self
@@ -387,6 +435,9 @@ class RunSection(Section):
     output_interval: Annotated[Time, Field(gt=0.0)] | None = None
     checkpoint_interval: Annotated[Time, Field(gt=0.0)] | None = None
     max_steps: Annotated[int, Field(ge=1)] | None = None
+    max_particles: Annotated[int, Field(ge=1)] | None = None
+    """Largest particle count the run may seed (default: as many as fit in the memory of the
+    machine, :func:`tissuempm.scenarios.checks.check_size`)."""
     output: str | None = None
 
     @property
@@ -535,6 +586,11 @@ class Scenario(Section):
             pairs.add(frozenset(c.bodies))
         if self.contacts:
             self.contact_fields()  # raises naming the bodies when the pairs contradict each other
+            if self.solver.integrator == "implicit" or self.solver.grid == "no_reset":
+                raise ValueError(
+                    "[[contact]] needs solver.integrator = 'explicit' and solver.grid = 'reset' "
+                    f"(got {self.solver.integrator!r}, {self.solver.grid!r})"
+                )
         seen = set()
         for i, bc in enumerate(self.boundaries):
             if (bc.axis, bc.side) in seen:
@@ -626,9 +682,16 @@ def load_scenario(path: str | Path, overrides: list[str] | None = None) -> Scena
 
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise ScenarioError(f"scenario file {path} not found") from None
+    except IsADirectoryError:
+        raise ScenarioError(f"scenario file {path} is a folder, not a TOML file") from None
+    except UnicodeDecodeError as e:
+        raise ScenarioError(f"{path} is not a text (UTF-8) file: byte {e.start} cannot be decoded; "
+                            "a scenario is a TOML text file") from None
+    except OSError as e:
+        raise ScenarioError(f"cannot read scenario file {path}: {e.strerror or e}") from None
     except tomllib.TOMLDecodeError as e:
         raise ScenarioError(f"{path} is not valid TOML: {e}") from None
     try:
