@@ -55,14 +55,18 @@ def main() -> None:
     ap.add_argument("--runs", default=",".join(RUNS), help="runs to do now (the others are read from --out)")
     args = ap.parse_args()
     out = Path(args.out) if args.out else ROOT / "docs" / "figures"
+    study(args.cell, args.ppc, args.dt, args.check, out, [r for r in args.runs.split(",") if r])
+
+
+def study(cell: str, ppc: int, dt: str, check: float, out: Path, todo: list[str]) -> dict | None:
+    """Run the variants in ``todo`` (the others are read from ``out``); metrics once all four exist."""
     out.mkdir(parents=True, exist_ok=True)
     stops = [d * 1e-3 for d in STOPS_MM]
-    todo = [r for r in args.runs.split(",") if r]
     for key in todo:
         integrator, kind = key.split("_")
-        sc = load_scenario(EXAMPLE, variant(args.cell, args.ppc, integrator, kind == "failure", args.dt))
+        sc = load_scenario(EXAMPLE, variant(cell, ppc, integrator, kind == "failure", dt))
         t0 = time.perf_counter()
-        tr = track_failure(sc, "sheet", "grip_top", "grip_bottom", check_interval=args.check, snapshots=stops,
+        tr = track_failure(sc, "sheet", "grip_top", "grip_bottom", check_interval=check, snapshots=stops,
                            end_displacement=stops[-1])  # fmt: skip
         (out / f"shear_{key}.pkl").write_bytes(pickle.dumps(tr))
         print(key, f"{time.perf_counter() - t0:.0f} s", tr.steps, "steps, first failure at",
@@ -70,11 +74,11 @@ def main() -> None:
     runs = {k: pickle.loads((out / f"shear_{k}.pkl").read_bytes()) for k in RUNS if (out / f"shear_{k}.pkl").exists()}
     if len(runs) < len(RUNS):
         print("runs missing for the report:", sorted(set(RUNS) - set(runs)))
-        return
+        return None
     ex, im = runs["explicit_failure"], runs["implicit_failure"]
     d_ex, d_im = ex.first_failure_displacement(), im.first_failure_displacement()
     metrics: dict = {
-        "resolution": {"cell": args.cell, "ppc": args.ppc, "particles": ex.n},
+        "resolution": {"cell": cell, "ppc": ppc, "particles": ex.n},
         "first_failure_mm": {"explicit": 1e3 * d_ex, "implicit": 1e3 * d_im},
         "first_failure_difference": abs(d_ex - d_im) / d_ex,
         "wall_s": {k: r.wall for k, r in runs.items()},
@@ -110,6 +114,7 @@ def main() -> None:
     (out / "shear_metrics.json").write_text(json.dumps(metrics, indent=2))
     print(json.dumps(metrics, indent=2))
     figures(runs, stops, out)
+    return metrics
 
 
 def figures(runs: dict, stops: list[float], out: Path) -> None:

@@ -43,23 +43,28 @@ def main() -> None:
     ap.add_argument("--runs", default=",".join(RUNS))
     args = ap.parse_args()
     out = Path(args.out) if args.out else ROOT / "docs" / "figures"
+    study(args.ppc, args.speed, args.travel, args.check, out, [r for r in args.runs.split(",") if r])
+
+
+def study(ppc: int, speed: str, travel: float, check: float, out: Path, todo: list[str]) -> dict | None:
+    """Run the grids in ``todo`` (the others are read from ``out``); metrics once both exist."""
     out.mkdir(parents=True, exist_ok=True)
-    v = float(args.speed.split()[0])
-    end = f"{1.05 * args.travel / v} s"
-    stops = list(np.round(np.arange(0.25e-3, args.travel + 1e-9, 0.25e-3), 9))
-    for key in [r for r in args.runs.split(",") if r]:
-        sc = load_scenario(EXAMPLE, variant(args.ppc, args.speed, key, end))
+    v = float(speed.split()[0])
+    end = f"{1.05 * travel / v} s"
+    stops = list(np.round(np.arange(0.25e-3, travel + 1e-9, 0.25e-3), 9))
+    for key in todo:
+        sc = load_scenario(EXAMPLE, variant(ppc, speed, key, end))
         t0 = time.perf_counter()
-        tr = track_failure(sc, "specimen", "grip", None, check_interval=args.check, snapshots=stops,
-                           end_displacement=args.travel)  # fmt: skip
+        tr = track_failure(sc, "specimen", "grip", None, check_interval=check, snapshots=stops,
+                           end_displacement=travel)  # fmt: skip
         (out / f"tensile_{key}.pkl").write_bytes(pickle.dumps(tr))
         print(key, f"{time.perf_counter() - t0:.0f} s", tr.steps, "steps, first failure at",
               f"{1e3 * tr.first_failure_displacement():.3f} mm" if tr.first else "none", flush=True)  # fmt: skip
     runs = {k: pickle.loads((out / f"tensile_{k}.pkl").read_bytes()) for k in RUNS if (out / f"tensile_{k}.pkl").exists()}
     if len(runs) < len(RUNS):
         print("runs missing for the report:", sorted(set(RUNS) - set(runs)))
-        return
-    metrics: dict = {"resolution": {"ppc": args.ppc, "speed": args.speed, "particles": runs["reset"].n}}
+        return None
+    metrics: dict = {"resolution": {"ppc": ppc, "speed": speed, "particles": runs["reset"].n}}
     for key, tr in runs.items():
         f = tr.first
         failed = f.failure > 0
@@ -68,6 +73,7 @@ def main() -> None:
         k3 = int(np.argmax(total > 0))
         metrics[key] = {
             "first_failure_mm": 1e3 * tr.first_failure_displacement(),
+            "first_y0_mm": (1e3 * f.x0[failed, 1]).round(2).tolist(),
             "first_total_failure_mm": 1e3 * float(d[k3]) if total[k3] > 0 else None,
             "first_codes": sorted(set(f.failure[failed].tolist())),
             "first_x0_mm": (1e3 * f.x0[failed, 0]).round(2).tolist(),
@@ -89,6 +95,7 @@ def main() -> None:
     (out / "tensile_metrics.json").write_text(json.dumps(metrics, indent=2))
     print(json.dumps(metrics, indent=2))
     figures(runs, before[-1] if before else None, out)
+    return metrics
 
 
 def figures(runs: dict, before: float | None, out: Path) -> None:

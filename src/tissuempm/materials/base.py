@@ -325,6 +325,14 @@ class Material:
     # ------------------------------------------------------------------ verification
     has_strain_energy: ClassVar[bool] = False
     """True when :meth:`strain_energy` is implemented (hyperelastic laws)."""
+    symmetric_tangent: ClassVar[bool | None] = None
+    """Whether the spatial tangent has the major symmetry c_ijkl = c_klij (the implicit solver then
+    assembles half the blocks); None: as ``has_strain_energy`` (hyperelastic laws)."""
+
+    @classmethod
+    def tangent_is_symmetric(cls) -> bool:
+        """:attr:`symmetric_tangent`, defaulting to :attr:`has_strain_energy`."""
+        return cls.has_strain_energy if cls.symmetric_tangent is None else cls.symmetric_tangent
 
     def strain_energy(self, F: np.ndarray, a0: np.ndarray | None = None) -> float:
         """Strain energy per unit reference volume W(F) [J/m^3] (NumPy), for hyperelastic laws."""

@@ -276,6 +276,7 @@ class TwoSurfaceFailure(Material):
         return stress
 
     analytic_tangent: ClassVar[bool] = True
+    symmetric_tangent: ClassVar[bool | None] = True  # the Weiss tangent of the intact constituents
 
     @classmethod
     def _build_tangent(cls, t: WarpTypes) -> Any:

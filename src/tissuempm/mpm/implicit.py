@@ -33,11 +33,12 @@ the run stops with an :class:`InstabilityError` that names the time, the iterati
 and the node with the largest residual.
 
 The linear systems are assembled into 3 x 3 blocks of the active nodes by a Warp kernel and
-solved with SciPy. With inertia the iteration matrix K + 4/dt^2 M is well conditioned and
-Jacobi-preconditioned CG (``scipy.sparse.linalg.cg``) needs ~70 iterations: 3x faster per step
-than the sparse direct solver (SuperLU), whose fill-in is heavy for the 125-node coupling of GIMP
-(the reduced shear test, 9e3 unknowns: 0.03 s against 0.27 s a solve; docs/mpm.md). The
-quasi-static matrix has no mass term and is poorly conditioned, so it gets the direct solver.
+solved with SciPy's sparse direct solver (SuperLU) up to :data:`DIRECT_MAX` unknowns: on the
+seed-resolution shear test (12,495 unknowns, 764,000 nonzeros) it takes 0.34-0.42 s of CPU a
+solve, against 0.35-0.50 s for ILU-preconditioned CG, 0.6-1.5 s for smoothed-aggregation AMG
+(pyamg) CG and 0.1-2.0 s for Jacobi CG (78-90 iterations, erratic on a loaded machine), and it
+needs no tolerance and no extra dependency (docs/mpm.md). Larger systems get Jacobi CG
+(``linear_solver = "cg"``), whose memory grows only with the matrix.
 """
 
 import math
@@ -58,6 +59,11 @@ from tissuempm.mpm.solver import ExplicitSolver
 from tissuempm.mpm.state import State
 
 LINEAR_SOLVERS: tuple[str, ...] = ("auto", "direct", "cg")
+DIRECT_MAX = 200_000
+"""Largest system (unknowns) that ``linear_solver = "auto"`` gives to the direct solver."""
+CG_RTOL = 1.0e-7
+"""Relative residual of the CG solves: an inexact Newton step (forcing term well below the
+Newton tolerance, so the iteration still converges at its quadratic rate to 1e-6)."""
 QS_REGULARISATION = 1.0e-9
 """Diagonal shift of the quasi-static iteration matrix, relative to its largest diagonal entry."""
 
@@ -79,8 +85,8 @@ class ImplicitConfig:
     dt_min
         Smallest step [s] before the run stops (default dt / 1024).
     linear_solver
-        ``"auto"`` (default: ``"cg"`` with inertia, ``"direct"`` quasi-static), ``"direct"`` (SuperLU)
-        or ``"cg"`` (Jacobi-preconditioned conjugate gradients).
+        ``"auto"`` (default: ``"direct"`` up to :data:`DIRECT_MAX` unknowns, ``"cg"`` beyond),
+        ``"direct"`` (SuperLU) or ``"cg"`` (Jacobi-preconditioned conjugate gradients).
     """
 
     dt: float
@@ -102,12 +108,12 @@ class ImplicitConfig:
         if self.linear_solver not in LINEAR_SOLVERS:
             raise ValueError(f"linear_solver = {self.linear_solver!r} is not valid: choose one of {', '.join(LINEAR_SOLVERS)}")
 
-    @property
-    def solver(self) -> str:
-        """The linear solver ``"auto"`` resolves to."""
+    def solver(self, unknowns: int) -> str:
+        """The linear solver ``"auto"`` resolves to for a system of ``unknowns``: SuperLU up to
+        :data:`DIRECT_MAX` unknowns (fill-in memory), Jacobi-CG beyond."""
         if self.linear_solver != "auto":
             return self.linear_solver
-        return "cg" if self.dynamic else "direct"
+        return "direct" if unknowns <= DIRECT_MAX else "cg"
 
     @property
     def smallest_dt(self) -> float:
@@ -148,6 +154,8 @@ class ImplicitSolver(ExplicitSolver):
         self.extra_fields = ("acc",)
         self.ik = implicit_kernels(self.t, self.config.shape)
         self._updates = [(i, prm, self.ik.update(type(m))) for i, m, _, prm in self.laws]
+        # tangents with the major symmetry (hyperelastic laws, failure): the assembly does half the blocks
+        self._symmetric = int(all(m.tangent_is_symmetric() for _, m, _, _ in self.laws))
         n, dev, t = self.n_nodes, self.device, self.t
         zs = lambda: wp.zeros(n, dtype=t.scalar, device=dev)  # noqa: E731
         zv = lambda: wp.zeros(n, dtype=t.vec3, device=dev)  # noqa: E731
@@ -240,7 +248,7 @@ class ImplicitSolver(ExplicitSolver):
                 Kb.zero_()
             self._launch(self.ik.assemble, e - b, [
                 st.x, st.size, st.F, self._F, self._sig, self._c, st.volume0, st.material, self.mat_rigid, *common,
-                int(stiffness), f, self.n_row, Kb, b], ("assemble", c))  # fmt: skip
+                int(stiffness), f, self.n_row, Kb, b, self._symmetric], ("assemble", c))  # fmt: skip
 
         self._parallel([lambda c=c, b=b, e=e: update(c, b, e) for c, (b, e) in enumerate(st.chunks)])
         bad = int(self._slots(st, "bad").min())
@@ -279,10 +287,10 @@ class ImplicitSolver(ExplicitSolver):
         return K.tocsr()
 
     def _linear_solve(self, K: sp.csr_matrix, r: np.ndarray) -> np.ndarray:
-        if self.implicit.solver == "cg":
+        if self.implicit.solver(K.shape[0]) == "cg":
             d = K.diagonal()
             M = sp.diags(1.0 / np.where(d > 0, d, 1.0))
-            x, info = spla.cg(K, r, rtol=1e-10, maxiter=20 * K.shape[0], M=M)
+            x, info = spla.cg(K, r, rtol=CG_RTOL, maxiter=20 * K.shape[0], M=M)
             if info != 0:
                 raise NotConverged(f"CG did not converge (info {info})")
             return x

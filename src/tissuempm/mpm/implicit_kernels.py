@@ -172,13 +172,15 @@ def implicit_kernels(t: WarpTypes, shape: str) -> Any:
         F_new: wp.array(dtype=mat33), sig: wp.array(dtype=mat33), cv: wp.array(dtype=M66),
         vol0: wp.array(dtype=s), material: wp.array(dtype=wp.int32), mat_rigid: wp.array(dtype=wp.int32),
         origin: vec3, inv_h: s, dims: wp.vec3i, stiffness: int, f_int: wp.array(dtype=vec3),
-        row: wp.array(dtype=int), Kb: wp.array2d(dtype=mat33), begin: int,
+        row: wp.array(dtype=int), Kb: wp.array2d(dtype=mat33), begin: int, symmetric: int,
     ):  # fmt: skip
         """Internal force f_i = sum_p V_p sigma_p grad S_ip and (``stiffness`` != 0) the tangent
         blocks K_ab = sum_p V_p [c_ijkl (grad S_a)_j (grad S_b)_l + (grad S_a . sigma grad S_b) delta_ik],
         V = V_0 J, grad S = F_inc^-T grad_n S, F_inc = F F_n^-1 (Bonet & Wood 2008, eq. 9.35); the
         blocks of node n go to row ``row[n]`` of ``Kb`` (the active nodes only; -1: not stored).
-        Particles ``begin + tid``: CPU chunks assemble into private ``f_int`` and ``Kb`` in parallel."""
+        Particles ``begin + tid``: CPU chunks assemble into private ``f_int`` and ``Kb`` in parallel.
+        ``symmetric`` != 0 (every law's c has the major symmetry: hyperelastic laws) computes the
+        blocks b >= a only and adds K_ba = K_ab^T: half the work."""
         p = begin + wp.tid()
         if mat_rigid[material[p]] != 0:
             return
@@ -219,7 +221,10 @@ def implicit_kernels(t: WarpTypes, shape: str) -> Any:
                             T1[i, k] = T1[i, k] + gj * Cb[j * 3 + 1, i * 3 + k]
                             T2[i, k] = T2[i, k] + gj * Cb[j * 3 + 2, i * 3 + k]
                 Sga = V * (S * ga)
-                for b in range(NP * NP * NP):
+                b0 = int(0)
+                if symmetric != 0:
+                    b0 = a
+                for b in range(b0, NP * NP * NP):
                     ib = b // (NP * NP)
                     jb = (b // NP) % NP
                     kb = b % NP
@@ -227,6 +232,10 @@ def implicit_kernels(t: WarpTypes, shape: str) -> Any:
                     blk = gb[0] * T0 + gb[1] * T1 + gb[2] * T2 + wp.dot(Sga, gb) * wp.identity(n=3, dtype=s)
                     off = ((ib - ia + NP - 1) * NB + (jb - ja + NP - 1)) * NB + (kb - ka + NP - 1)
                     wp.atomic_add(Kb, ra, off, blk)
+                    if symmetric != 0 and b != a:  # K_ba = K_ab^T (c with the major symmetry)
+                        rb = row[nb + ib * sx + jb * sy + kb]
+                        if rb >= 0:
+                            wp.atomic_add(Kb, rb, NB * NB * NB - 1 - off, wp.transpose(blk))
 
     @kernel
     def finish(
