@@ -61,6 +61,11 @@ def test_minimal_toml_json(case):
     assert set(data["parameters"]) == {"mu[0]", "alpha[0]", "mu[1]", "alpha[1]", "g[0]", "g[1]", "tau[0]", "tau[1]"}
     assert len(data["costs"]) == 2 and data["cost"] < 0.01
     assert data["cost"] == pytest.approx(2.0 * data["costs"]["compression_1000"] + 0.5 * data["costs"]["compression_0.01"])
+    # the convergence residual of the polished optimum is reported with its tolerance
+    conv = data["convergence"]
+    assert set(conv) >= {"kkt_residual", "kkt_relative", "tolerance", "converged"}
+    assert conv["kkt_relative"] == pytest.approx(conv["kkt_residual"] / data["cost"], rel=1e-12)
+    assert conv["converged"] == (conv["kkt_relative"] <= conv["tolerance"])
     out = case / "out"
     for f in ("result.json", "parameters.csv", "fit.toml", "fit.inp", "fit.k", "fit.feb.xml", "fit.png", "rates.png"):
         assert (out / f).is_file(), f

@@ -7,7 +7,7 @@ import pytest
 
 from tissuempm.calibration.data import Curve, DataError, read_csv
 
-TRELOAR = Path("/work/shared/data/treloar1944.csv")
+TRELOAR = Path(__file__).parent / "data" / "treloar1944.csv"  # Treloar (1944), kept in the repository
 
 
 def _write(tmp_path: Path, text: str, name: str = "d.csv") -> Path:

@@ -1,5 +1,7 @@
 """Standard errors, profile likelihood, residual bootstrap and AIC/BIC on a small noisy problem."""
 
+import copy
+
 import numpy as np
 import pytest
 
@@ -8,6 +10,7 @@ from tissuempm.calibration.data import Curve
 from tissuempm.calibration.fit import fit, make_form
 from tissuempm.calibration.forward import predict
 from tissuempm.calibration.optimizers import SearchSettings
+from tissuempm.calibration.polish import KKT_RTOL
 from tissuempm.materials import MooneyRivlin
 
 FAST = SearchSettings(seed=0, trial_points=40, stage1_points=10, max_local_runs=3, min_local_runs=2)
@@ -38,12 +41,46 @@ def test_standard_errors_cover_truth(noisy_fit):
     assert -1 <= corr[0, 1] <= 1
 
 
+def test_fit_is_a_converged_local_minimum(noisy_fit):
+    _, r = noisy_fit
+    assert r.optimality.converged and r.optimality.relative <= KKT_RTOL
+    assert r.to_dict()["convergence"]["kkt_relative"] == r.optimality.relative
+
+
 def test_profile_minimum_at_optimum(noisy_fit):
     _, r = noisy_fit
+    cost = r.cost
     p = ident.profile_likelihood(r, "C10", n_points=5)
+    assert p["restarts"] == [] and "restarts" not in r.statistics  # the polished fit is the profile's minimum
     k = int(np.argmin(p["cost"]))
     assert p["values"][k] == pytest.approx(r.parameters["C10"])
-    assert min(p["lr"]) == pytest.approx(0.0, abs=1e-6) and max(p["lr"]) > 3.84
+    # at the optimum's own C10 the profile starts at the polished optimum, which already meets the KKT
+    # tolerance, so it returns the same point: equal cost up to the cost's round-off (1e-14 relative)
+    assert p["cost"][2] == pytest.approx(cost, rel=1e-12)
+    # no other grid point is lower than O (1 - PROFILE_RTOL): the residual bound of a KKT point (ident.PROFILE_RTOL)
+    assert min(p["cost"]) >= cost * (1 - ident.PROFILE_RTOL)
+    # likelihood ratio n ln(SSR_p / SSR_min) = n (relative SSR change) to first order: the same relative bound, x n
+    n = r.objective.n_points
+    assert min(p["lr"]) >= -n * 2 * ident.PROFILE_RTOL and max(p["lr"]) > 3.84
+
+
+def test_profile_below_optimum_restarts_the_fit(noisy_fit):
+    _, good = noisy_fit
+    # a fit that stopped short: the same problem with its optimum moved to C01 + 20 %, polished in C10 only
+    r = copy.copy(good)
+    r.statistics, r.minima = {}, list(good.minima)
+    theta = good.theta * np.array([1.0, 1.2])
+    r.parameters = dict(zip(r.form.names, theta))
+    r.cost = float(r.objective(theta))
+    p = ident.profile_likelihood(r, "C10", n_points=5)
+    assert len(p["restarts"]) >= 1 and "below the optimum" in p["restarts"][0]
+    (first, *_) = r.statistics["restarts"]
+    assert first["adopted"] and first["cost_after"] < first["cost_before"]
+    # the restarted fit is polished to the same minimum as the good fit (both KKT points of one basin):
+    # cost within the KKT bound, parameters within 1e-4 relative (condition number of the 2x2 problem ~ 10)
+    assert r.cost == pytest.approx(good.cost, rel=ident.PROFILE_RTOL)
+    np.testing.assert_allclose(r.theta, good.theta, rtol=1e-4)
+    assert min(p["cost"]) >= r.cost * (1 - ident.PROFILE_RTOL) and p["cost_min"] == r.cost
 
 
 def test_bootstrap_and_information_criteria(noisy_fit):

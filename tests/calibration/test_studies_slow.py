@@ -34,17 +34,23 @@ def test_table2_pseudo_data_nine_of_ten_seeds_below_0_01():
     assert np.sum(np.array(costs) < 0.01) >= 9, costs
 
 
-def test_treloar_three_term_ogden_beats_ogden_1972():
-    """Six parameters need more local runs than the default 15: with 15, seeds 1 and 4 of 1..8 stop at
-    O = 0.28 and 0.21 (which seed fails changes with round-off-level differences), with 25 all 8 reach
-    O = 0.081-0.082 (measured; docs/calibration.md)."""
-    curves = read_csv(Path("/work/shared/data/treloar1944.csv"))
+TRELOAR = Path(__file__).parent / "data" / "treloar1944.csv"  # Treloar (1944), kept in the repository
+
+
+@pytest.mark.parametrize("seed", range(1, 9))
+def test_treloar_three_term_ogden_defaults_every_seed(seed):
+    """Default settings (15 local runs for 6 parameters, then the polish) reach the best known minimum
+    O = 0.0805 from seeds 1-8; before the polish, seed 1 stopped at O = 0.279 under one BLAS kernel
+    (docs/calibration.md). Bound 0.09: the issue's target, 12 % above that minimum and half of Ogden's
+    1972 parameters under the same cost (0.1708)."""
+    curves = read_csv(TRELOAR)
     form = make_form("ogden", curves, terms=3)
     mu_p, alpha = (0.63e6, 0.0012e6, -0.01e6), (1.3, 5.0, -2.0)
     ref = np.array([v for m, a in zip(mu_p, alpha) for v in (m * a / 2, a)])  # Ogden's mu' -> Abaqus mu
     ref_cost = CostFunction(form, curves)(ref)
     t0 = time.perf_counter()
-    r = fit(form, curves, SearchSettings(seed=1, min_local_runs=25))
-    print(f"\ntreloar: O(3-term fit) = {r.cost:.4f} vs O(Ogden 1972) = {ref_cost:.4f}, "
-          f"wall {time.perf_counter() - t0:.0f} s")
-    assert r.cost <= ref_cost
+    r = fit(form, curves, SearchSettings(seed=seed))
+    print(f"\ntreloar seed {seed}: O = {r.cost:.5f} (Ogden 1972: {ref_cost:.4f}), KKT residual / O = "
+          f"{r.optimality.relative:.2g}, {r.search.local_runs} local runs, wall {time.perf_counter() - t0:.0f} s")
+    assert r.cost <= 0.09 and r.cost < ref_cost
+    assert r.optimality.converged

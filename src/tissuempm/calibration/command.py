@@ -1,10 +1,11 @@
 """``tissuempm calibrate CONFIG.toml [--out DIR] [--json]``: fit a material model to data files.
 
-The lead registers :func:`calibrate` in ``tissuempm.cli`` (``app.command("calibrate")(calibrate)``).
+:func:`calibrate` is registered in ``tissuempm.cli`` (``app.command("calibrate")(calibrate)``).
 """
 
 from __future__ import annotations
 
+import os
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -16,7 +17,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from tissuempm.calibration.config import CalibrationConfig, ConfigError, load_config
+from tissuempm.calibration.config import CalibrationConfig, ConfigError, default_name, load_config
 from tissuempm.calibration.data import DataError, read_csv
 from tissuempm.calibration.fit import FitResult, fit, make_form
 from tissuempm.calibration.optimizers import SearchSettings
@@ -58,12 +59,16 @@ def run_config(cfg: CalibrationConfig, base: Path, progress=None) -> FitResult:
     a = cfg.analysis
     from tissuempm.calibration import identifiability as ident
 
+    if a.profile:  # first: a profile below the optimum restarts the fit, and the profiles are redone
+        for _ in range(3):
+            n_restarts = len(result.statistics.get("restarts", []))
+            result.statistics["profiles"] = [ident.profile_likelihood(result, n, n_points=a.profile_points)
+                                             for n in form.names]
+            if len(result.statistics.get("restarts", [])) == n_restarts:
+                break
     result.statistics["information_criteria"] = ident.information_criteria(result)
     if a.standard_errors:
         result.statistics["standard_errors"] = ident.standard_errors(result)
-    if a.profile:
-        result.statistics["profiles"] = [ident.profile_likelihood(result, n, n_points=a.profile_points)
-                                         for n in form.names]
     if a.bootstrap:
         result.statistics["bootstrap"] = ident.bootstrap(result, a.bootstrap, seed=o.seed)
     if a.compare_terms:
@@ -90,8 +95,32 @@ def _table(result: FitResult) -> Table:
     for i, n in enumerate(result.form.names):
         t.add_row(n, f"{result.parameters[n]:.5g}", result.units[n], "" if not se else f"{se[i]:.3g}")
     for c, o in zip(result.curves, result.costs):
-        t.add_row(escape(f"O[{c.name}]"), f"{o:.4g}", "-", f"w = {c.weight:g}")
+        t.add_row(escape(f"O[{c.name}]"), f"{o:.4g}", "-", f"w = {c.weight:g}" + ("" if c.weight else " (not fitted)"))
+    opt = result.optimality
+    t.caption = (f"KKT residual / O = {opt.relative:.2g} (tolerance {opt.tolerance:g}): "
+                 + ("converged local minimum" if opt.converged else "NOT converged to the tolerance"))
     return t
+
+
+def check_output(out: Path, name: str) -> None:
+    """Refuse an output folder that cannot be written, before the fit starts (nothing half-written).
+
+    ``out`` must be a writable folder or not exist yet below a writable folder; ``name`` must be a
+    library key (the config checks ``output.name``; this covers the default from the file name).
+    """
+    from tissuempm.library.userfile import NAME_PATTERN
+
+    if not NAME_PATTERN.match(name):
+        raise ConfigError(f"output name {name!r} is not a snake_case library key (set [output] name)")
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out {str(out)!r} is an existing file, not a folder")
+    parent = out
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir():
+        raise ConfigError(f"--out {str(out)!r}: {str(parent)!r} is a file, not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise ConfigError(f"--out {str(out)!r}: folder {str(parent)!r} is not writable")
 
 
 def calibrate(
@@ -110,7 +139,13 @@ def calibrate(
         raise typer.Exit(2) from None
     base = config.resolve().parent
     out = out or base / f"{config.stem}_calibration"
-    total = cfg.optimizer.max_local_runs if cfg.optimizer.method == "globalsearch" else (
+    name = cfg.output.name or default_name(config)
+    try:
+        check_output(out, name)
+    except ConfigError as e:
+        err.print(f"[red]error:[/red] {e}", highlight=False)
+        raise typer.Exit(2) from None
+    total = cfg.optimizer.max_local_runs or None if cfg.optimizer.method == "globalsearch" else (
         cfg.optimizer.maxiter + cfg.optimizer.polish)
     with Progress(TextColumn("[progress.description]{task.description}"), BarColumn(), TextColumn("{task.fields[best]}"),
                   TimeElapsedColumn(), console=err, transient=json_output) as bar:
@@ -126,15 +161,22 @@ def calibrate(
             raise typer.Exit(2) from None
     from tissuempm.calibration.results import to_json, write_results
 
-    name = cfg.output.name or config.stem.replace("-", "_")
-    files = write_results(result, out, name, title=cfg.output.title, source=f"tissuempm calibrate {config.name}",
-                          plots=cfg.output.plots, plot_rates_list=cfg.output.plot_rates or None,
-                          lsdyna_units=cfg.output.lsdyna_units)
+    try:
+        files = write_results(result, out, name, title=cfg.output.title, source=f"tissuempm calibrate {config.name}",
+                              plots=cfg.output.plots, plot_rates_list=cfg.output.plot_rates or None,
+                              lsdyna_units=cfg.output.lsdyna_units)
+    except OSError as e:
+        err.print(f"[red]error:[/red] writing the results to {out} failed: {e}", highlight=False)
+        raise typer.Exit(2) from None
     if json_output:
         sys.stdout.write(to_json(result) + "\n")
         return
     con = Console()
     con.print(_table(result))
+    for r in result.statistics.get("restarts", []):
+        con.print(f"restart: {r['reason']}; the fit restarted from there "
+                  + (f"and moved to O = {r['cost_after']:.8g}" if r["adopted"] else "and kept its optimum"))
     con.print(f"{len(result.minima)} distinct local minima; {result.search.local_runs} local runs, "
-              f"{result.search.nfev} model evaluations, {result.search.wall_time:.1f} s")
+              f"{result.search.nfev} model evaluations, {result.search.wall_time:.1f} s; "
+              f"KKT residual / O = {result.optimality.relative:.2g}")
     con.print(f"results in {out} ({', '.join(sorted(files))})")

@@ -27,6 +27,7 @@ Relative data paths are resolved from the config file's folder.
 
 from __future__ import annotations
 
+import re
 import tomllib
 from pathlib import Path
 from typing import Literal
@@ -37,6 +38,7 @@ from tissuempm.calibration.constraints import STABILITY_MODES
 from tissuempm.calibration.data import MODE_ALIASES
 from tissuempm.calibration.forms import FORMS
 from tissuempm.calibration.forward import FORWARDS
+from tissuempm.library.userfile import NAME_PATTERN
 
 
 class ConfigError(ValueError):
@@ -81,7 +83,7 @@ class DataConfig(_Strict):
 
     file: str
     strain_rate: float | None = Field(None, description="1/s, negative in compression; omit for quasi-static")
-    weight: float = Field(1.0, gt=0)
+    weight: float = Field(1.0, ge=0, description="weight in the total cost; 0 shows the data set without fitting it")
     mode: Literal[tuple(MODE_ALIASES)] | None = None  # type: ignore[valid-type]
     stress_unit: Literal["Pa", "kPa", "MPa", "GPa"] | None = None
     strain_unit: Literal["1", "-", "percent", "%"] | None = None
@@ -103,11 +105,11 @@ class OptimizerConfig(_Strict):
     method: Literal["globalsearch", "differential_evolution"] = "globalsearch"
     seed: int = 0
     local_solver: Literal["slsqp", "trust-constr"] = "slsqp"
-    trial_points: int = Field(400, ge=10)
-    stage1_points: int = Field(80, ge=2)
-    max_local_runs: int = Field(25, ge=1)
-    min_local_runs: int = Field(15, ge=1, description="local runs added from the best unused trial points up to this "
-                                                       "number (use 25 for 6 or more parameters, e.g. 3-term Ogden)")
+    trial_points: int | None = Field(None, ge=10, description="default 50 n (n free parameters)")
+    stage1_points: int | None = Field(None, ge=2, description="default trial_points / 5")
+    max_local_runs: int | None = Field(None, ge=1, description="default 4 n")
+    min_local_runs: int | None = Field(None, ge=1, description="local runs added from the best unused trial points "
+                                                               "up to this number; default ceil(2.5 n)")
     local_maxiter: int = Field(400, ge=1)
     popsize: int = Field(15, ge=4)
     maxiter: int = Field(200, ge=1)
@@ -127,11 +129,19 @@ class AnalysisConfig(_Strict):
 class OutputConfig(_Strict):
     """``[output]``: names and files."""
 
-    name: str | None = Field(None, description="library name of the fitted material (default: config file stem)")
+    name: str | None = Field(None, description="library name of the fitted material, snake_case (default: the "
+                                                "config file stem in lowercase, other characters replaced by _)")
     title: str | None = None
     plots: bool = True
     plot_rates: list[float] = Field(default_factory=list, description="rates [1/s] of the -30..+30 % plot")
     lsdyna_units: Literal["SI", "mm-ms-kg", "mm-s-tonne"] = "SI"
+
+    @field_validator("name")
+    @classmethod
+    def _snake_case(cls, v: str | None) -> str | None:
+        if v is not None and not NAME_PATTERN.match(v):
+            raise ValueError("must be a snake_case library key: a lowercase letter, then lowercase letters, digits, _")
+        return v
 
 
 class CalibrationConfig(_Strict):
@@ -142,6 +152,12 @@ class CalibrationConfig(_Strict):
     optimizer: OptimizerConfig = OptimizerConfig()
     analysis: AnalysisConfig = AnalysisConfig()
     output: OutputConfig = OutputConfig()
+
+
+def default_name(config: Path) -> str:
+    """Library name from a config file name: ``Brain-Fit.toml`` -> ``brain_fit`` (``m_`` prefixed if needed)."""
+    name = re.sub(r"[^a-z0-9_]", "_", config.stem.lower())
+    return name if NAME_PATTERN.match(name) else f"m_{name}"
 
 
 def _format(err: ValidationError, path: Path) -> str:
@@ -161,9 +177,13 @@ def load_config(path: str | Path) -> CalibrationConfig:
     """Read and validate a config file (raises :class:`ConfigError` with every problem listed)."""
     path = Path(path)
     if not path.is_file():
-        raise ConfigError(f"config file {str(path)!r} does not exist")
+        raise ConfigError(f"config file {str(path)!r} " + ("is a folder" if path.is_dir() else "does not exist"))
     try:
-        raw = tomllib.loads(path.read_text())
+        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError as err:
+        raise ConfigError(f"{path}: not a text (UTF-8) TOML file: undecodable byte at position {err.start}") from None
+    except OSError as err:
+        raise ConfigError(f"{path}: cannot be read: {err.strerror or err}") from None
     except tomllib.TOMLDecodeError as err:
         raise ConfigError(f"{path}: not valid TOML: {err}") from None
     try:

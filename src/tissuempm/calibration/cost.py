@@ -8,7 +8,8 @@ N_m resampled strains:
 
 The weighted normalized residual vector r (concatenated ``sqrt(w_m) (sigma_hat - sigma) / ||sigma_m||``)
 satisfies ``||r||^2 = sum_m w_m O_m^2``; it is the least-squares form used by the
-identifiability analysis.
+identifiability analysis. Data sets of weight 0 are shown (their O_m is computed) but are left
+out of O, of r and of the number of fitted points.
 """
 
 from __future__ import annotations
@@ -66,12 +67,12 @@ class CostFunction:
     def __post_init__(self) -> None:
         if not self.curves:
             raise ValueError("no data sets to fit")
+        if not any(c.weight > 0 for c in self.curves):
+            raise ValueError("every data set has weight 0: at least one must have weight > 0 to be fitted")
         if self.forward not in FORWARDS:
             raise ValueError(f"forward = {self.forward!r} is not valid: choose one of {', '.join(FORWARDS)}")
-        if self.form.prony_terms:
-            missing = [c.name for c in self.curves if c.strain_rate is None]
-            if len(missing) == len(self.curves):
-                raise ValueError("a viscoelastic fit needs data sets with a strain_rate")
+        if self.form.prony_terms and all(c.strain_rate is None for c in self.curves if c.weight > 0):
+            raise ValueError("a viscoelastic fit needs fitted data sets (weight > 0) with a strain_rate")
         self.prepared = [PreparedCurve(c, self.max_increment) for c in self.curves]
         self.weights = np.array([c.weight for c in self.curves])
         self.norms = np.array([np.linalg.norm(c.stress) for c in self.curves])
@@ -102,9 +103,11 @@ class CostFunction:
         """Weighted normalized residuals r, ||r||^2 = sum_m w_m O_m^2."""
         preds = self.predictions(theta)
         return np.concatenate(
-            [np.sqrt(w) * (s - c.stress) / n for s, c, w, n in zip(preds, self.curves, self.weights, self.norms)]
+            [np.sqrt(w) * (s - c.stress) / n for s, c, w, n in zip(preds, self.curves, self.weights, self.norms)
+             if w > 0]
         )
 
     @property
     def n_points(self) -> int:
-        return int(sum(c.strain.size for c in self.curves))
+        """Number of fitted data points (data sets of weight > 0)."""
+        return int(sum(c.strain.size for c in self.curves if c.weight > 0))

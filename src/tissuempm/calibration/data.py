@@ -101,7 +101,8 @@ class Curve:
     mode
         ``"uniaxial"``, ``"equibiaxial"``, ``"pure_shear"`` or ``"simple_shear"``.
     weight
-        Weight w_m of the data set in the total cost (seed 004 eq. 54).
+        Weight w_m of the data set in the total cost (seed 004 eq. 54); 0 shows the data set
+        (its O_m is computed, tabulated and plotted) without fitting it.
     """
 
     name: str
@@ -162,8 +163,8 @@ def validate_curve(c: Curve) -> None:
         raise DataError(f"{c.name}: mode = {c.mode!r} is not valid: choose one of {', '.join(MODE_ALIASES)}")
     if c.mode != "simple_shear" and np.any(1.0 + eps <= 0.0):
         raise DataError(f"{c.name}: strain must be > -1 (stretch > 0) in {c.mode} mode")
-    if not (np.isfinite(c.weight) and c.weight > 0):
-        raise DataError(f"{c.name}: weight = {c.weight!r} must be > 0")
+    if not (np.isfinite(c.weight) and c.weight >= 0):
+        raise DataError(f"{c.name}: weight = {c.weight!r} must be >= 0 (0: shown, not fitted)")
     if c.strain_rate is not None:
         if not np.isfinite(c.strain_rate) or c.strain_rate == 0:
             raise DataError(f"{c.name}: strain_rate = {c.strain_rate!r} must be finite and non-zero (or omitted)")
@@ -175,6 +176,28 @@ def validate_curve(c: Curve) -> None:
             )
     if np.all(sig == 0):
         raise DataError(f"{c.name}: all stresses are zero (the normalized cost eq. 52 is undefined)")
+    check_stress_sign(c.name, c.mode, eps, sig)
+
+
+def check_stress_sign(name: str, mode: str, strain: np.ndarray, stress: np.ndarray) -> None:
+    """Raise :class:`DataError` when the stress has the wrong sign for the strain.
+
+    In every mode a loading curve from the reference state has the stress of the strain's sign
+    (tension: positive strain and nominal stress; compression: both negative; simple shear: tau and
+    gamma alike), for any Drucker-stable material (dP/dlam > 0, dtau/dgamma > 0, P = 0 at lam = 1).
+    Refused: a curve whose stress at its largest |strain| has the opposite sign, or whose points
+    do net negative work, sum(strain x stress) < 0 (small opposite-sign values near zero strain,
+    such as a load-cell offset, are accepted).
+    """
+    k = int(np.argmax(np.abs(strain)))
+    work = float(np.sum(strain * stress))
+    if strain[k] * stress[k] < 0 or work < 0:
+        what = "shear stress tau" if mode == "simple_shear" else "nominal stress"
+        raise DataError(
+            f"{name}: {what} of the wrong sign for the strain in {mode} mode: at strain {strain[k]:g} the stress is "
+            f"{stress[k]:g} Pa (tension is positive strain and positive stress, compression negative strain and "
+            f"negative stress; check the sign convention of the stress column)"
+        )
 
 
 def _unit_from_name(column: str) -> tuple[str, str | None]:
@@ -237,8 +260,15 @@ def read_csv(
     """
     path = Path(path)
     if not path.is_file():
-        raise DataError(f"data file {str(path)!r} does not exist")
-    text = path.read_text()
+        raise DataError(f"data file {str(path)!r} does not exist" + (" (it is a folder)" if path.is_dir() else ""))
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as err:
+        raise DataError(f"{path}: not a text (UTF-8) CSV file: undecodable byte at position {err.start}") from None
+    except OSError as err:
+        raise DataError(f"{path}: cannot be read: {err.strerror or err}") from None
+    if "\x00" in text:
+        raise DataError(f"{path}: not a text CSV file (it holds NUL bytes)")
     meta: dict[str, str] = {}
     body = []
     for line in text.splitlines():

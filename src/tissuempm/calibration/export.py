@@ -52,6 +52,17 @@ def _split(material: Material) -> tuple[Material, tuple[float, ...], tuple[float
     return material, (), (), ()
 
 
+def _check_hgo_form(el: Material, solver: str) -> None:
+    """Refuse an HGO law with ``fiber_kinematics = "full"``: Abaqus, LS-DYNA (MAT_295) and FEBio all use
+    the isochoric fiber invariants, so the card would describe a different law."""
+    form = getattr(el, "fiber_kinematics", "isochoric")
+    if form != "isochoric":
+        raise ValueError(
+            f"hgo.fiber_kinematics = {form!r}: {solver}'s HGO uses the isochoric fiber invariants "
+            "(fiber_kinematics = 'isochoric'); a 'full' HGO has no equivalent card and is not exported"
+        )
+
+
 def _lines(values: list[float], per_line: int = 8) -> list[str]:
     return [", ".join(f"{v:.8g}" for v in values[i : i + per_line]) for i in range(0, len(values), per_line)]
 
@@ -80,6 +91,7 @@ def abaqus_cards(material: Material, name: str = "TISSUE") -> str:
         n = len(el.C)
         out += [f"*HYPERELASTIC, REDUCED POLYNOMIAL, N={n}", *_lines([*el.C, D] + [0.0] * (n - 1))]
     elif kind == "hgo":
+        _check_hgo_form(el, "Abaqus")
         out += ["*ANISOTROPIC HYPERELASTIC, HOLZAPFEL, LOCAL DIRECTIONS=1", *_lines([el.C10, D, el.k1, el.k2, el.kappa])]
     elif kind == "linear_elastic":
         out += ["*ELASTIC", *_lines([el.E, el.nu])]
@@ -212,6 +224,7 @@ def lsdyna_cards(material: Material, mid: int = 1, units: str = "SI") -> str:
         for gi, ti in zip(g, tau):
             out.append(_card([gi * G0 / u["stress"], u["time"] / ti]))
     elif el.kind == "hgo":
+        _check_hgo_form(el, "LS-DYNA")
         if g:
             raise ValueError("no LS-DYNA export for a viscoelastic HGO (MAT_295 is written without Prony terms)")
         out += _mat295_hgo(el, mid, rho, u["stress"])
@@ -294,6 +307,7 @@ def _elastic_xml(el: Material, tag: str = "material") -> ET.Element:
             p(name, getattr(el, name.upper()))
         p("D1", 0.5 * el.K)
     elif kind == "hgo":
+        _check_hgo_form(el, "FEBio")
         e.set("type", "Holzapfel-Gasser-Ogden")
         p("c", 2.0 * el.C10)
         p("k1", el.k1)

@@ -23,6 +23,7 @@ from tissuempm.calibration.data import Curve
 from tissuempm.calibration.forms import ModelForm, modulus_scale, time_range
 from tissuempm.calibration.forward import DEFAULT_MAX_INCREMENT, shear_stretches
 from tissuempm.calibration.optimizers import LocalMinimum, Problem, SearchResult, SearchSettings, search
+from tissuempm.calibration.polish import Optimality
 from tissuempm.materials.base import Material
 
 
@@ -42,6 +43,7 @@ def make_form(
 ) -> ModelForm:
     """A model form whose default bounds are scaled to the data (modulus scale and time range).
 
+    The bounds are scaled to the data sets of weight > 0.
     ``K`` (default 2.19 GPa, the report's soft-tissue bulk modulus), ``density`` and
     ``volumetric`` are fixed for hyperelastic cores, ``nu`` for a linear elastic core.
     ``fit_bulk_modulus`` makes K a fitted parameter (``K`` is then only the start value); it
@@ -53,8 +55,9 @@ def make_form(
     else:
         fx.update({"K": K, "volumetric": volumetric})
     fx.update(fixed or {})
+    fitted = [c for c in curves if c.weight > 0] or list(curves)  # weight 0: shown, not fitted
     return ModelForm(
-        form, terms, prony_terms, scale=modulus_scale(curves), time_range=time_range(curves),
+        form, terms, prony_terms, scale=modulus_scale(fitted), time_range=time_range(fitted),
         fixed=fx, bounds=dict(bounds or {}), fit_bulk_modulus=fit_bulk_modulus,
     )
 
@@ -79,6 +82,9 @@ class FitResult:
         Every distinct local minimum (sorted by cost; see :class:`LocalMinimum`).
     search
         The search record (method, seed, evaluations, local runs, wall time).
+    optimality
+        KKT residual at the returned optimum after the gradient-based polish
+        (:class:`~tissuempm.calibration.polish.Optimality`; ``converged`` when below its tolerance).
     form, curves, objective, constraints
         The problem, for the identifiability analysis, plots and exports.
     """
@@ -90,6 +96,7 @@ class FitResult:
     costs: np.ndarray
     minima: list[LocalMinimum]
     search: SearchResult
+    optimality: Optimality
     form: ModelForm
     curves: list[Curve]
     objective: CostFunction
@@ -115,11 +122,13 @@ class FitResult:
             "material": self.material.to_dict(),
             "minima": [
                 {"cost": m.cost, "feasible": m.feasible, "hits": m.hits,
-                 "parameters": dict(zip(self.form.names, map(float, m.theta))), "violations": m.violations}
+                 "parameters": dict(zip(self.form.names, map(float, m.theta))), "violations": m.violations,
+                 "kkt_relative": None if m.optimality is None else m.optimality.relative}
                 for m in self.minima
             ],
             "search": {"method": self.search.method, "seed": self.search.seed, "nfev": self.search.nfev,
                        "local_runs": self.search.local_runs, "wall_time_s": self.search.wall_time},
+            "convergence": self.optimality.to_dict(),
             "statistics": self.statistics,
         }
 
@@ -179,7 +188,8 @@ def fit(
     """Fit ``form`` to ``curves`` with a constrained global search (seed 004 Sec. 2.3).
 
     ``forward`` selects the forward model (:data:`tissuempm.calibration.forward.FORWARDS`).
-    Returns the best feasible minimum as a new frozen material; raises RuntimeError when
+    Returns the best feasible minimum, polished to a KKT point (:func:`~tissuempm.calibration.optimizers.polish_minima`;
+    its residual is ``FitResult.optimality``), as a new frozen material; raises RuntimeError when
     no local run ends at parameters satisfying every constraint.
     """
     settings = settings or SearchSettings()
@@ -196,8 +206,33 @@ def fit(
         costs=problem.cost.costs(theta),
         minima=res.minima,
         search=res,
+        optimality=best.optimality or problem.optimality(best.x),
         form=form,
         curves=list(curves),
         objective=problem.cost,
         constraints=problem.constraints,
     )
+
+
+def restart_from(result: FitResult, theta: np.ndarray, reason: str) -> bool:
+    """Polish the fit again from ``theta`` (e.g. a profile point below the optimum) and adopt the end point.
+
+    The end point replaces the optimum (material, parameters, costs, optimality, first minimum) only
+    if it satisfies every constraint and its cost is lower. Each attempt is recorded in
+    ``result.statistics["restarts"]`` with ``reason``. Returns True when the optimum moved.
+    """
+    problem = Problem(result.objective, result.constraints)
+    form = result.form
+    x, f, opt = problem.polish(form.x(theta))
+    theta = form.canonical(form.theta(x))
+    moved = f < result.cost and not result.constraints.check(theta)
+    result.statistics.setdefault("restarts", []).append(
+        {"reason": reason, "cost_before": result.cost, "cost_after": float(f), "adopted": bool(moved)})
+    if moved:
+        result.material = form.material(theta)
+        result.parameters = dict(zip(form.names, map(float, theta)))
+        result.cost = float(problem.cost(theta))
+        result.costs = problem.cost.costs(theta)
+        result.optimality = opt
+        result.minima.insert(0, LocalMinimum(theta, form.x(theta), result.cost, True, [], 1, None, opt))
+    return moved

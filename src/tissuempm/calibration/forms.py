@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from tissuempm.materials.base import Material, ParameterError, from_dict
+from tissuempm.materials.viscoelastic import MAX_TERMS as VISCO_MAX_TERMS
 
 FORMS: tuple[str, ...] = (
     "neo_hookean",
@@ -162,8 +163,8 @@ class ModelForm:
             self.terms = DEFAULT_TERMS[self.form]
         if not 1 <= self.terms <= MAX_TERMS[self.form]:
             raise ValueError(f"terms = {self.terms} for {self.form}: valid are 1..{MAX_TERMS[self.form]}")
-        if not 0 <= self.prony_terms <= 12:
-            raise ValueError(f"prony_terms = {self.prony_terms}: valid are 0..12")
+        if not 0 <= self.prony_terms <= VISCO_MAX_TERMS:
+            raise ValueError(f"prony_terms = {self.prony_terms}: valid are 0..{VISCO_MAX_TERMS} (Viscoelastic's limit)")
         t_lo, t_hi = self.time_range
         params = _elastic_params(self.form, self.terms, self.scale)
         if self.fit_bulk_modulus:

@@ -6,11 +6,13 @@ independent errors of equal variance s^2 = SSR / (n - p):
 
 * **standard errors and correlation** (linearization): ``Cov = s^2 (J^T J)^+`` with the
   Jacobian ``J = dr/dtheta`` by central differences at the optimum;
-* **profile likelihood** per parameter: the parameter fixed on a grid, the others re-optimized
-  (constrained local runs from the optimum); the profile is reported as the cost O and as the
-  likelihood-ratio statistic ``n ln(SSR_p / SSR_min)`` (chi-square with 1 dof; 3.84 = 95 %);
+* **profile likelihood** per parameter: the parameter fixed on a grid, the others polished to a
+  KKT point starting from the polished optimum (a profile point below the optimum restarts the
+  fit); the profile is reported as the cost O and as the likelihood-ratio statistic
+  ``n ln(SSR_p / SSR_min)`` (chi-square with 1 dof; 3.84 = 95 %);
 * **residual bootstrap**: the per-data-set residuals of the fit resampled with replacement and
-  added to the fitted curves, the model refitted from the optimum, percentile intervals;
+  added to the fitted curves, the model refitted from the (polished) optimum by the gradient-based
+  polish of :mod:`~tissuempm.calibration.polish`, percentile intervals;
 * **AIC / BIC** for the choice of the number of terms: ``n ln(SSR/n) + 2 p`` and ``+ p ln n``.
 """
 
@@ -20,10 +22,9 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
-from scipy import optimize
-
-from tissuempm.calibration.fit import FitResult, build_problem
-from tissuempm.calibration.optimizers import Problem, SearchSettings
+from tissuempm.calibration.fit import FitResult, build_problem, restart_from
+from tissuempm.calibration.optimizers import Problem
+from tissuempm.calibration.polish import KKT_RTOL, polish
 
 
 def jacobian(result: FitResult, theta: np.ndarray | None = None, rel_step: float = 1e-6) -> np.ndarray:
@@ -66,8 +67,15 @@ def standard_errors(result: FitResult) -> dict[str, Any]:
     }
 
 
-def _local_fixed(problem: Problem, x0: np.ndarray, fix: int, value_x: float, settings: SearchSettings):
-    """Constrained local run with unit-box coordinate ``fix`` held at ``value_x``."""
+PROFILE_RTOL = KKT_RTOL
+"""A profile point whose cost is below ``O (1 - PROFILE_RTOL)`` restarts the fit from there. The
+optimum is polished to a KKT residual below KKT_RTOL x O in relative parameter changes, so a
+change of relative size d <= 1 (the profile grid) can lower its cost by at most about
+KKT_RTOL d x O to first order; anything lower is a better minimum the search missed."""
+
+
+def _polish_fixed(problem: Problem, x0: np.ndarray, fix: int, value_x: float) -> tuple[np.ndarray, float]:
+    """The fit polished to a KKT point with unit-box coordinate ``fix`` held at ``value_x``."""
     free = [i for i in range(problem.n) if i != fix]
 
     def full(z: np.ndarray) -> np.ndarray:
@@ -76,20 +84,24 @@ def _local_fixed(problem: Problem, x0: np.ndarray, fix: int, value_x: float, set
         x[fix] = value_x
         return x
 
-    res = optimize.minimize(
-        lambda z: problem.f(full(z)), x0[free], method="SLSQP",
-        bounds=optimize.Bounds(np.zeros(len(free)), np.ones(len(free))),
-        constraints=[{"type": "ineq", "fun": lambda z: problem.constraints(full(z))}],
-        options={"maxiter": settings.local_maxiter, "ftol": 1e-12},
-    )
-    x = full(np.clip(res.x, 0.0, 1.0))
+    z, _, _, _ = polish(lambda z: problem.f(full(z)), lambda z: problem.constraints(full(z)), x0[free],
+                        lambda z: problem.scales(full(z))[free])
+    x = full(z)
     return x, problem.f(x)
 
 
 def profile_likelihood(
-    result: FitResult, name: str, values: np.ndarray | None = None, n_points: int = 11, span: float = 0.5
+    result: FitResult, name: str, values: np.ndarray | None = None, n_points: int = 11, span: float = 0.5,
+    max_restarts: int = 3,
 ) -> dict[str, Any]:
     """Profile of one parameter: O and n ln(SSR_p/SSR_min) with the others re-optimized.
+
+    Each profile point is polished to a KKT point of the other parameters, starting from its
+    neighbour's solution (walking outwards from the polished optimum). If a point costs less than
+    the optimum (below ``O (1 - PROFILE_RTOL)``), the fit is restarted from it
+    (:func:`~tissuempm.calibration.fit.restart_from`, which records it in ``result.statistics["restarts"]``
+    and updates ``result``) and the profile is computed again around the new optimum, at most
+    ``max_restarts`` times; the returned ``restarts`` lists the restarts this profile caused.
 
     Parameters
     ----------
@@ -99,6 +111,24 @@ def profile_likelihood(
         Grid of values (default: ``n_points`` over theta (1 +- span), log-spaced for log parameters,
         clipped to the bounds).
     """
+    restarts = []
+    while True:
+        prof = _profile(result, name, values, n_points, span)
+        k = int(np.argmin(prof["cost"]))
+        if prof["cost"][k] >= result.cost * (1.0 - PROFILE_RTOL) or len(restarts) >= max_restarts:
+            break
+        reason = (f"profile of {name}: O = {prof['cost'][k]:.8g} at {name} = {prof['values'][k]:.6g} is below "
+                  f"the optimum O = {result.cost:.8g}")
+        restarts.append(reason)
+        if not restart_from(result, result.form.theta(np.array(prof["x"][k])), reason):
+            break
+    prof.pop("x")
+    prof["restarts"] = restarts
+    return prof
+
+
+def _profile(result: FitResult, name: str, values: np.ndarray | None, n_points: int, span: float) -> dict[str, Any]:
+    """One pass of :func:`profile_likelihood` (with the unit-box end point of every grid value)."""
     form = result.form
     i = form.names.index(name)
     p = form.params[i]
@@ -111,7 +141,6 @@ def profile_likelihood(
             values = np.linspace(th[i] - d, th[i] + d, n_points)
         values = np.clip(values, p.lower, p.upper)
     problem = Problem(result.objective, result.constraints)
-    settings = SearchSettings()
     x_opt = form.x(th)
     ssr_min = float(np.sum(result.objective.residuals(th) ** 2))
     n = result.objective.n_points
@@ -119,22 +148,22 @@ def profile_likelihood(
     order = np.argsort(np.abs(np.asarray(values) - th[i]))
     out_cost = np.empty(len(values))
     out_ssr = np.empty(len(values))
-    starts = {}
+    starts: dict[int, np.ndarray] = {}
     for k in order:
         v = values[k]
         vx = form.x(np.where(np.arange(form.n) == i, v, th))[i]
         left = [j for j in starts if (values[j] - th[i]) * (v - th[i]) > 0]
         x0 = starts[min(left, key=lambda j: abs(values[j] - v))] if left else x_opt
-        x, f = _local_fixed(problem, x0, i, vx, settings)
+        x, f = _polish_fixed(problem, x0, i, vx)
         starts[k] = x
         out_cost[k] = f
         r = result.objective.residuals(form.theta(x))
         out_ssr[k] = float(r @ r)
-    costs, ssrs = out_cost, out_ssr
     with np.errstate(divide="ignore", invalid="ignore"):
-        lr = n * np.log(np.maximum(ssrs, 1e-300) / max(ssr_min, 1e-300))
-    return {"name": name, "values": np.asarray(values).tolist(), "cost": costs.tolist(), "ssr": ssrs.tolist(),
-            "lr": lr.tolist(), "optimum": float(th[i]), "cost_min": result.cost}
+        lr = n * np.log(np.maximum(out_ssr, 1e-300) / max(ssr_min, 1e-300))
+    return {"name": name, "values": np.asarray(values).tolist(), "cost": out_cost.tolist(), "ssr": out_ssr.tolist(),
+            "lr": lr.tolist(), "optimum": float(th[i]), "cost_min": result.cost,
+            "x": [starts[k].tolist() for k in range(len(values))]}
 
 
 def bootstrap(result: FitResult, n_boot: int = 50, seed: int = 0, level: float = 0.95) -> dict[str, Any]:
@@ -152,7 +181,7 @@ def bootstrap(result: FitResult, n_boot: int = 50, seed: int = 0, level: float =
                                 stability_modes=result.constraints.modes,
                                 max_increment=result.objective.max_increment, forward=result.objective.forward)
         problem.constraints = result.constraints
-        x, f = problem.local(x_opt, SearchSettings())
+        x, _, _ = problem.polish(x_opt)
         if not result.constraints.check(result.form.theta(x)):
             samples.append(result.form.theta(x))
     S = np.array(samples)

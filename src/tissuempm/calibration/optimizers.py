@@ -25,19 +25,22 @@ Two methods, both working in the unit box ``x`` of :class:`~tissuempm.calibratio
     scipy's differential evolution with the constraints as a ``NonlinearConstraint``,
     followed by local polishing of the best distinct members of the final population.
 
-Every distinct local minimum (different by more than ``x_tol`` in the unit box or
-``f_tol`` relative in cost) is kept, sorted by cost, with its feasibility: a lower cost
-can come with worse parameters (the report's Table 2), so all of them are reported.
-Only minima that satisfy every constraint (checked again on a fine grid) can be chosen
-as the result.
+Every distinct local minimum (more than ``x_tol`` apart in the unit box, terms in canonical
+order) is kept, sorted by cost, with its feasibility: a lower cost can come with worse
+parameters (the report's Table 2), so all of them are reported. Only minima that satisfy every
+constraint (checked again on a fine grid) can be chosen as the result. After either method the
+lowest ``polish`` feasible minima are polished to KKT points (:func:`polish_minima`,
+:mod:`~tissuempm.calibration.polish`), and the defaults of the search scale with the number of
+free parameters (:meth:`SearchSettings.for_parameters`).
 """
 
 from __future__ import annotations
 
+import math
 import time
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
@@ -46,6 +49,7 @@ from scipy.stats import qmc
 
 from tissuempm.calibration.constraints import Constraints
 from tissuempm.calibration.cost import CostFunction
+from tissuempm.calibration.polish import Optimality, kkt_residual, polish, relative_steps
 
 PENALTY = 1.0e3
 """Score = cost + PENALTY x constraint violation (stage 1 / stage 2 merit)."""
@@ -66,14 +70,15 @@ class SearchSettings:
     local_solver
         ``"slsqp"`` or ``"trust-constr"``.
     trial_points, stage1_points
-        Number of scatter-search trial points and of stage-1 points (GlobalSearch).
+        Number of scatter-search trial points and of stage-1 points (GlobalSearch); default
+        ``50 n`` and ``trial_points / 5`` for n free parameters (:meth:`for_parameters`).
     max_local_runs
-        Largest number of local solver runs (GlobalSearch).
+        Largest number of local solver runs (GlobalSearch); default ``4 n``.
     min_local_runs
         Extension of GlobalSearch: when its basin and merit filters leave fewer local runs than
         this, more runs start from the best-scoring unused trial points (at least 0.1 apart in
-        the unit box). GlobalSearch's filters alone stopped after 3-4 runs on the Table 2
-        pseudo-data, half the time in a spurious minimum (O = 0.074).
+        the unit box); default ``ceil(2.5 n)``. GlobalSearch's filters alone stopped after 3-4 runs
+        on the Table 2 pseudo-data, half the time in a spurious minimum (O = 0.074).
     local_maxiter
         Iterations of each local run.
     distance_threshold, basin_radius_factor, penalty_threshold_factor, max_wait_cycle
@@ -81,9 +86,11 @@ class SearchSettings:
     popsize, maxiter
         Differential evolution population multiplier and generations.
     polish
-        Local polishes after differential evolution (distinct best members).
+        Local runs from the distinct best members after differential evolution, and the number
+        of lowest feasible minima of either method polished to a KKT point (:func:`polish_minima`).
     x_tol, f_tol
-        Two minima are the same if closer than ``x_tol`` (unit box) and ``f_tol`` (relative cost).
+        Two end points closer than ``x_tol`` (unit box) are one minimum, represented by the lower
+        one; of two whose costs differ by less than ``f_tol`` (relative) the polished one.
     start
         Start point as physical parameters (default: :meth:`ModelForm.default_start`).
     """
@@ -91,10 +98,10 @@ class SearchSettings:
     method: Literal["globalsearch", "differential_evolution"] = "globalsearch"
     seed: int = 0
     local_solver: Literal["slsqp", "trust-constr"] = "slsqp"
-    trial_points: int = 400
-    stage1_points: int = 80
-    max_local_runs: int = 25
-    min_local_runs: int = 15
+    trial_points: int | None = None
+    stage1_points: int | None = None
+    max_local_runs: int | None = None
+    min_local_runs: int | None = None
     local_maxiter: int = 400
     distance_threshold: float = 0.75
     basin_radius_factor: float = 0.2
@@ -106,6 +113,22 @@ class SearchSettings:
     x_tol: float = 1e-3
     f_tol: float = 1e-6
     start: tuple[float, ...] | None = None
+
+    def for_parameters(self, n: int) -> SearchSettings:
+        """These settings with the defaults that scale with the number n of free parameters filled in.
+
+        Rule: ``trial_points = 50 n``, ``stage1_points = trial_points / 5``, ``min_local_runs =
+        ceil(2.5 n)``, ``max_local_runs = 4 n``: linear in n, as the population of differential
+        evolution (Storn & Price 1997 recommend 5-10 n members; scipy's ``popsize`` multiplies by n),
+        with MATLAB GlobalSearch's ratio of stage-1 to trial points (200 of 1000). The constants
+        keep the settings this module had for the 8-parameter Table 2 problem (400 and 80 points;
+        20 runs where 15 sufficed for 10 of 10 seeds) and give the 6-parameter Treloar fit 15 runs,
+        which with the polish reach its best minimum from seeds 1-8 (docs/calibration.md).
+        """
+        trial = self.trial_points or 50 * n
+        min_runs = self.min_local_runs or math.ceil(2.5 * n)
+        return replace(self, trial_points=trial, stage1_points=self.stage1_points or max(trial // 5, 2),
+                       min_local_runs=min_runs, max_local_runs=self.max_local_runs or max(4 * n, min_runs))
 
 
 @dataclass
@@ -128,6 +151,8 @@ class LocalMinimum:
         Number of local runs that ended here.
     start
         Unit-box start point of the first run that found it.
+    optimality
+        KKT residual after the gradient-based polish (None: not polished).
     """
 
     theta: np.ndarray
@@ -137,6 +162,7 @@ class LocalMinimum:
     violations: list[str] = field(default_factory=list)
     hits: int = 1
     start: np.ndarray | None = None
+    optimality: Optimality | None = None
 
 
 @dataclass
@@ -178,6 +204,21 @@ class Problem:
         """Merit of a trial point: cost + PENALTY x violation."""
         return self.f(x) + PENALTY * self.constraints.violation(x)
 
+    def scales(self, x: np.ndarray) -> np.ndarray:
+        """Unit-box change per relative parameter change at ``x`` (:func:`.polish.relative_steps`)."""
+        p = self.form.params
+        return relative_steps([q.lower for q in p], [q.upper for q in p], [q.log for q in p],
+                              self.form.theta(np.clip(x, 0.0, 1.0)))
+
+    def optimality(self, x: np.ndarray) -> Optimality:
+        """KKT residual at ``x`` (:func:`~tissuempm.calibration.polish.kkt_residual`)."""
+        return kkt_residual(self.f, self.constraints, x, self.scales)
+
+    def polish(self, x0: np.ndarray) -> tuple[np.ndarray, float, Optimality]:
+        """Gradient-based polish from ``x0`` to a KKT point (:func:`~tissuempm.calibration.polish.polish`)."""
+        x, f, opt, _ = polish(self.f, self.constraints, x0, self.scales)
+        return x, f, opt
+
     def local(self, x0: np.ndarray, settings: SearchSettings) -> tuple[np.ndarray, float]:
         """One constrained local run from ``x0``; returns (x, cost)."""
         bounds = optimize.Bounds(np.zeros(self.n), np.ones(self.n))
@@ -206,22 +247,25 @@ class _Minima:
         self.p, self.s = problem, settings
         self.items: list[LocalMinimum] = []
 
-    def add(self, x: np.ndarray, cost: float, start: np.ndarray) -> tuple[int, bool]:
+    def add(
+        self, x: np.ndarray, cost: float, start: np.ndarray | None, hits: int = 1, optimality: Optimality | None = None
+    ) -> tuple[int, bool]:
         """Record a local run's end point (terms in canonical order); returns (index, is_new)."""
         x = self.p.form.x(self.p.form.canonical(self.p.form.theta(x)))
         for i, m in enumerate(self.items):
-            if np.linalg.norm(m.x - x) <= self.s.x_tol and abs(m.cost - cost) <= self.s.f_tol * max(1.0, abs(cost)):
-                m.hits += 1
-                return i, False
-            # same basin reached with a cost differing only by the solver tolerance
+            # same basin (a cost differing only by the solver tolerance): keep the lower point
             if np.linalg.norm(m.x - x) <= self.s.x_tol:
-                m.hits += 1
-                if cost < m.cost:
-                    m.x, m.cost, m.theta = x, cost, self.p.form.theta(x)
+                m.hits += hits
+                if cost < m.cost and not (abs(m.cost - cost) <= self.s.f_tol * max(1.0, abs(cost))
+                                          and m.optimality is not None and optimality is None):
+                    m.x, m.cost, m.theta, m.optimality = x, cost, self.p.form.theta(x), optimality
+                    m.violations = self.p.constraints.check(m.theta)
+                    m.feasible = not m.violations and cost < INVALID_COST
                 return i, False
         theta = self.p.form.theta(x)
         msgs = self.p.constraints.check(theta)
-        self.items.append(LocalMinimum(theta, x, cost, not msgs and cost < INVALID_COST, msgs, 1, start))
+        self.items.append(LocalMinimum(theta, x, cost, not msgs and cost < INVALID_COST, msgs, hits, start,
+                                       optimality))
         return len(self.items) - 1, True
 
     def sorted(self) -> list[LocalMinimum]:
@@ -371,12 +415,37 @@ def differential_evolution(
                         len(starts), time.perf_counter() - t0)
 
 
+def polish_minima(problem: Problem, result: SearchResult, settings: SearchSettings) -> SearchResult:
+    """Polish the ``settings.polish`` lowest feasible minima to KKT points (:mod:`~tissuempm.calibration.polish`).
+
+    More than the best one: a local run stopped short can lie above another one and still polish
+    to the lowest minimum (Treloar 3-term Ogden: a run stopped at O = 0.279 polishes to 0.0805).
+    Minima that polish into the same point are merged. The cost and the evaluations are added to
+    the search record.
+    """
+    t0 = time.perf_counter()
+    nfev0 = problem.cost.nfev
+    todo = [m for m in result.minima if m.feasible][:settings.polish]
+    out = _Minima(problem, settings)
+    for m in result.minima:
+        if any(m is t for t in todo):
+            x, f, opt = problem.polish(m.x)
+            out.add(x, f, m.start, m.hits, opt)
+        else:
+            out.add(m.x, m.cost, m.start, m.hits, m.optimality)
+    return SearchResult(out.sorted(), result.method, result.seed, result.nfev + problem.cost.nfev - nfev0,
+                        result.local_runs, result.wall_time + time.perf_counter() - t0)
+
+
 def search(
     problem: Problem, settings: SearchSettings, progress: Callable[[int, int, float], None] | None = None
 ) -> SearchResult:
-    """Run the method named in ``settings``."""
+    """Run the method named in ``settings``, then polish its best minima (:func:`polish_minima`)."""
+    settings = settings.for_parameters(problem.n)
     if settings.method == "globalsearch":
-        return global_search(problem, settings, progress)
-    if settings.method == "differential_evolution":
-        return differential_evolution(problem, settings, progress)
-    raise ValueError(f"optimizer method {settings.method!r}: valid are globalsearch, differential_evolution")
+        res = global_search(problem, settings, progress)
+    elif settings.method == "differential_evolution":
+        res = differential_evolution(problem, settings, progress)
+    else:
+        raise ValueError(f"optimizer method {settings.method!r}: valid are globalsearch, differential_evolution")
+    return polish_minima(problem, res, settings)

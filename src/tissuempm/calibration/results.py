@@ -8,7 +8,8 @@ Files written by :func:`write_results` into the output folder:
   ``tissuempm.library`` / ``tissuempm materials show`` and the MPM solver can use the material by name
   once the folder is registered (``TISSUEMPM_LIBRARY_PATH`` or ``tissuempm.library.register``);
 * ``<name>.inp``, ``<name>.k``, ``<name>.feb.xml``  solver cards (:mod:`tissuempm.calibration.export`);
-* ``fit.png``          data vs model per data set; ``rates.png`` the model over -30..+30 % strain at
+* ``fit.png``          data vs model per data set (weight-0 sets dashed: shown, not fitted);
+  ``rates.png`` the model over -30..+30 % strain at
   several rates; ``profiles.png`` profile likelihoods when computed.
 """
 
@@ -71,7 +72,8 @@ def plot_fit(result: FitResult, path: Path) -> None:
     for k, (c, s) in enumerate(zip(result.curves, preds)):
         col = f"C{k % 10}"
         ax.plot(c.strain, c.stress, "o", color=col, ms=4, label=f"{c.name} data")
-        ax.plot(c.strain, s, "-", color=col, label=f"model (O = {result.costs[k]:.3g})")
+        ax.plot(c.strain, s, "--" if c.weight == 0 else "-", color=col,
+                label=f"model (O = {result.costs[k]:.3g}{'' if c.weight else ', w = 0: not fitted'})")
     ax.set_xlabel("engineering strain (simple shear: gamma) [-]")
     ax.set_ylabel("nominal stress (simple shear: tau) [Pa]")
     ax.set_title(f"{result.form.describe()}: O = {result.cost:.4g}")
