@@ -19,7 +19,10 @@ Usage::
 ``shape_function``, ``transfer``, ``device``, ``particles``, ``particle_steps_per_s`` (the median
 of ``--repeat`` blocks of ``--steps`` steps), ``repeats`` (each block's rate) and the machine
 description. Timings are wall clock after a warm-up step (kernel compilation excluded); a step
-includes the CFL time step from every particle's wave speed.
+includes the CFL time step from every particle's wave speed. ``particle_steps_per_cpu_s`` divides
+by the CPU time of all the process's threads instead (``time.process_time``): on a machine shared
+with other jobs it measures the work, which they do not inflate (with T threads a machine of
+its own gives at most T times it per wall second).
 """
 
 import argparse
@@ -52,7 +55,9 @@ def material(case: str):
     return TwoSurfaceFailure(base=Weiss.example(), gamma_max=0.25, eps_max=0.4)
 
 
-def run_case(case, precision, threads, cells, ppc, steps, shape="gimp", transfer="musl", device="cpu", repeat=3) -> dict:
+def build_case(case, precision, threads, cells, ppc, shape="gimp", transfer="musl", device="cpu", law=None):
+    """The benchmark block of ``case`` (``cells``^3 cells, ``ppc``^3 particles per cell; the case's
+    material or ``law``): (solver, state)."""
     h = 1e-3
     n = cells
     grid = Grid(origin=(0, 0, 0), cell_size=h, shape=(n + 4, n + 4, n + 4))
@@ -66,17 +71,23 @@ def run_case(case, precision, threads, cells, ppc, steps, shape="gimp", transfer
         v[:, 0] += np.where(field == 0, 0.5, -0.5)
         contact = Contact(2, {(0, 1): ContactLaw("friction", 0.08)})
     pd = ParticleData(x=X, volume=(h / ppc) ** 3, size=h / ppc, material=0, velocity=v, field=field)
-    solver = ExplicitSolver(Model(grid=grid, materials=[material(case)], contact=contact),
+    solver = ExplicitSolver(Model(grid=grid, materials=[law or material(case)], contact=contact),
                             SolverConfig(shape=shape, precision=precision, threads=threads, transfer=transfer,
                                          device=device))  # fmt: skip
-    st = solver.initial_state(pd)
+    return solver, solver.initial_state(pd)
+
+
+def run_case(case, precision, threads, cells, ppc, steps, shape="gimp", transfer="musl", device="cpu", repeat=3,
+             law=None) -> dict:
+    solver, st = build_case(case, precision, threads, cells, ppc, shape, transfer, device, law)
     solver.step(st)  # warm-up (compilation)
-    walls = []
+    walls, cpus = [], []
     for _ in range(repeat):  # consecutive blocks of steps: the median resists other tenants' bursts
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         for _ in range(steps):
             solver.step(st)
         walls.append(time.perf_counter() - t0)
+        cpus.append(time.process_time() - c0)
     solver.close()
     wall = float(np.median(walls))
     return {
@@ -86,11 +97,12 @@ def run_case(case, precision, threads, cells, ppc, steps, shape="gimp", transfer
         "shape_function": shape,
         "transfer": transfer,
         "device": device,
-        "particles": len(X),
+        "particles": st.n,
         "steps": steps,
         "wall_s": wall,
-        "particle_steps_per_s": len(X) * steps / wall,
-        "repeats": [len(X) * steps / w for w in walls],
+        "particle_steps_per_s": st.n * steps / wall,
+        "repeats": [st.n * steps / w for w in walls],
+        "particle_steps_per_cpu_s": st.n * steps / float(np.median(cpus)),
     }
 
 

@@ -4,6 +4,11 @@ Open ``<out>/particles.pvd`` in ParaView: the frames load as one time series;
 colour by any point field and use the *Point Gaussian* representation to draw
 particles as spheres.
 
+Frames are binary VTU without compression (meshio, base64 data inline): a 72,000-particle frame
+with every field takes 0.07-0.09 s to write against 0.9 s with zlib (``compression`` of
+:meth:`VTUSeries.write`), for files 1.7 times larger. Which fields a run writes is chosen by
+``[run] fields`` (:mod:`tissuempm.io.frames`).
+
 Fields written per particle (units SI; floating-point fields in single precision to keep
 frames small and fast to write: the checkpoint keeps full precision):
 
@@ -141,15 +146,18 @@ class VTUSeries:
     def pvd(self) -> Path:
         return self.directory / f"{self.name}.pvd"
 
-    def write(self, time: float, points: np.ndarray, fields: dict[str, np.ndarray]) -> Path:
-        """Write one frame at ``time`` [s] and update the ``.pvd`` index; returns the frame's path."""
+    def write(
+        self, time: float, points: np.ndarray, fields: dict[str, np.ndarray], compression: str | None = None
+    ) -> Path:
+        """Write one frame at ``time`` [s] and update the ``.pvd`` index; returns the frame's path.
+        ``compression``: None (fastest to write) or meshio's ``"zlib"`` / ``"lzma"`` (smaller files)."""
         rel = f"frames/{self.name}_{len(self.frames):05d}.vtu"
         path = self.directory / rel
         points = np.ascontiguousarray(points, dtype=np.float64)
         cells = [("vertex", np.arange(len(points), dtype=np.int64).reshape(-1, 1))]
         mesh = meshio.Mesh(points, cells, point_data={k: np.ascontiguousarray(v) for k, v in fields.items()})
         with atomic_path(path) as tmp:
-            meshio.write(tmp, mesh, file_format="vtu")
+            meshio.write(tmp, mesh, file_format="vtu", compression=compression)
         self.frames.append((float(time), rel))
         write_pvd(self.pvd, self.frames)
         return path

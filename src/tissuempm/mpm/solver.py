@@ -135,6 +135,11 @@ class ExplicitSolver:
         self._dirty = False  # chunk buffers hold data of an interrupted step
         self._gravity = self.t.vec3(*cfg.gravity)
         self._body: wp.array | None = None
+        self.reactions = True
+        """Whether a step computes the constrained particles' reaction shares (``State.reaction``,
+        a pass over the particles when the model has rigid or fixed ones). A caller that reads them
+        only at some steps (the run loop: at its output steps) may set it False in between;
+        ``State.reaction`` then keeps the values of the last step that computed them."""
         self._launch = Launcher(self.device)
         self._pool = ThreadPoolExecutor(max_workers=self.threads) if self.threads > 1 else None
         self._loaded: set[int] = set()
@@ -143,9 +148,14 @@ class ExplicitSolver:
 
     # ------------------------------------------------------------------------------ setup
     def _ready(self, kernel: Any) -> Any:
-        """Compile ``kernel`` once in this thread (module loading is not thread-safe); return it."""
+        """Compile ``kernel`` once in this thread (module loading is not thread-safe); return it.
+
+        Loaded for the block size of the launches (Warp builds a module per block size, and its
+        CPU launches use 1, not the module default of 256): loading the default would compile
+        every kernel twice on a cold cache, once here and once at its first launch."""
         if id(kernel) not in self._loaded:
-            kernel.module.load(wp.get_device(self.device))
+            device = wp.get_device(self.device)
+            kernel.module.load(device, 1 if device.is_cpu else None)
             self._loaded.add(id(kernel))
         return kernel
 
@@ -448,16 +458,10 @@ class ExplicitSolver:
         scatters the new momentum into the chunk's buffer). On a grid that is not reset the
         stencils sit at the reference positions, so POSITION (which moves ``x``) is a pass of its own."""
         s = self.t.scalar
-        if flags & K.MOVE and flags & K.GRADIENT and v_grad is self.g_vnew:
-            flags |= K.SHARED
         xs = self._stencil_positions(st)
-        passes = [flags]
-        if self.reference is not None:
-            stencil_flags = flags & ~K.POSITION
-            stencil_flags |= K.REFERENCE if flags & K.GRADIENT else 0
-            passes = [f for f in (stencil_flags, flags & K.POSITION) if f]
+        passes = self._gather_passes(flags, v_grad is self.g_vnew)
         kernels = [(self._ready(self.kern.g2p(f)), xs if f & (K.MOVE | K.GRADIENT) else st.x) for f in passes]
-        reaction = flags & K.MOVE and st.constrained
+        reaction = flags & K.MOVE and st.constrained and self.reactions
 
         def task(c: int, b: int, e: int) -> Callable[[], None]:
             def run() -> None:
@@ -484,6 +488,46 @@ class ExplicitSolver:
             return run
 
         return [task(c, b, e) for c, (b, e) in enumerate(st.chunks)]
+
+    def _gather_passes(self, flags: int, shared: bool) -> list[int]:
+        """G2P kernel flags of a gather of ``flags`` (``shared``: the gradient velocity is ``v_new``)."""
+        if flags & K.MOVE and flags & K.GRADIENT and shared:
+            flags |= K.SHARED
+        if self.reference is None:
+            return [flags]
+        stencil_flags = flags & ~K.POSITION
+        stencil_flags |= K.REFERENCE if flags & K.GRADIENT else 0
+        return [f for f in (stencil_flags, flags & K.POSITION) if f]
+
+    def step_kernels(self) -> list[Any]:
+        """The Warp kernels an explicit step launches (the body-force P2G only once a
+        :class:`Control` brings a body acceleration), in the order of first use."""
+        kern, tr = self.kern, self.config.transfer
+        if tr == "usf":
+            grids = [(K.MASS, K.VELOCITY), (K.FORCE, K.UPDATE)]
+            gathers = [(K.GRADIENT, False), (K.MOVE | K.POSITION, False)]
+        elif tr == "usl":
+            grids = [(K.MASS | K.FORCE, K.UPDATE)]
+            gathers = [(K.MOVE | K.GRADIENT | K.POSITION, True)]
+        else:
+            grids = [(K.MASS | K.FORCE, K.UPDATE), (K.MOMENTUM, K.VELOCITY)]
+            gathers = [(K.MOVE | K.REPROJECT, True), (K.GRADIENT | K.POSITION, False)]
+        out = [kern.p2g(f) for f, _ in grids if f & (K.MASS | K.FORCE)] + [kern.grid(f, m) for f, m in grids]
+        out += [kern.g2p(f) for flags, shared in gathers for f in self._gather_passes(flags, shared)]
+        if self.n_fields > 1:
+            out += [contact_kernel(self.t, mode, self.n_fields) for mode in sorted({m for _, m in grids})]
+        return out + [kern.reaction, kern.rigid_speed] + [k for _, _, mk, _ in self.laws for k in (mk.stress, mk.speed)]
+
+    def load_kernels(self, report: Callable[[int, int], None] | None = None) -> None:
+        """Load (on a cold kernel cache: compile) every kernel of :meth:`step_kernels` now, so the
+        first step does not; ``report(done, total)`` is called before each and at the end."""
+        kernels = self.step_kernels()
+        for i, k in enumerate(kernels):
+            if report is not None:
+                report(i, len(kernels))
+            self._ready(k)
+        if report is not None:
+            report(len(kernels), len(kernels))
 
     def _gather_and_stress(self, st: State, gather: list[Callable[[], None]], dt: float) -> None:
         """One parallel section: each chunk's ``gather`` tasks, then its stress update; the history

@@ -111,7 +111,16 @@ def run(
                     fields["rate"] = (p.time - last["t0"]) / (now - last["clock0"])
                 bar.update(task, completed=min(p.time, p.end_time), **fields)
 
-            result = job.run(restart=restart, progress=show, overwrite=overwrite)
+            def kernels(done: int, total: int) -> None:
+                """Say so while kernels compile (a cold cache: loading a cached kernel takes milliseconds)."""
+                now = wallclock.perf_counter()
+                last.setdefault("kernels0", now)
+                if done < total and now - last["kernels0"] > 0.5:
+                    bar.update(task, description=f"compiling kernels {done}/{total} (once per machine)")
+                elif done == total:
+                    bar.update(task, description="running")
+
+            result = job.run(restart=restart, progress=show, overwrite=overwrite, kernels=kernels)
     except (CheckpointError, OutputFolderError) as e:
         raise _fail(e) from None
     except OSError as e:  # the folder became unwritable or the disk is full while running
@@ -128,7 +137,9 @@ def run(
             f"kept in {out_dir / runner.CHECKPOINT}"
         )
         raise typer.Exit(1)
+    t = s["timing"]
     console.print(
         f"[green]{result.status}[/green]: t = {_si_time(result.time)} in {result.steps} steps, "
-        f"{s['wall_s']:.1f} s wall; open {out_dir / s['pvd']} in ParaView"
+        f"{s['wall_s']:.1f} s wall (solver {t['solver_s']:.1f} s, output {t['output_s']:.1f} s; start-up "
+        f"{t['start_up_s']:.1f} s before); open {out_dir / s['pvd']} in ParaView"
     )

@@ -10,8 +10,19 @@ Output folder layout::
     scenario.json            the validated scenario in SI units
 
 A frame is written at the first step reaching each multiple of
-``run.output_interval`` and a checkpoint at each multiple of
-``run.checkpoint_interval`` (both at time 0 too, and both at the end).
+``run.output_interval``, a history row at each multiple of ``run.history_interval``
+(default: with the frames) and a checkpoint at each multiple of
+``run.checkpoint_interval`` (all at time 0 too, and at the end).
+
+Output is off the solver's critical path: the loop copies the state to the host
+(``State.to_numpy()``) only at those steps and hands the writes to a background thread
+(:class:`~tissuempm.io.background.BackgroundWriter`: one job at a time in order, at most two
+waiting, each file written to a temporary name and renamed), so the solver steps on while a
+frame or checkpoint is written; a failed write stops the run with
+:class:`~tissuempm.io.background.OutputError` (an ``OSError``), the last complete checkpoint kept.
+Frames carry ``run.fields`` (:mod:`tissuempm.io.frames`); checkpoints every field. The
+reaction shares of rigid and fixed particles are computed only for the steps that end at an
+output time (``ExplicitSolver.reactions``).
 
 A new run refuses a folder that holds another run unless ``overwrite=True``, which
 first removes the old run's files (:mod:`tissuempm.scenarios.run_folder`).
@@ -52,6 +63,8 @@ from tissuempm.io import (
     write_checkpoint,
     write_json,
 )
+from tissuempm.io.background import BackgroundWriter
+from tissuempm.io.frames import DEFAULT_FRAME_FIELDS, select_fields, state_names
 from tissuempm.mpm import ExplicitSolver, ImplicitSolver, InstabilityError, State
 from tissuempm.scenarios import run_folder
 from tissuempm.scenarios.build import Problem, build, implicit_config
@@ -127,6 +140,7 @@ class Runner:
     """
 
     def __init__(self, scenario: Scenario, out: str | Path, device: str = "cpu"):
+        created = wallclock.perf_counter()
         self.scenario = scenario
         self.out = Path(out)
         self.device = device
@@ -140,15 +154,23 @@ class Runner:
             else ImplicitSolver(self.problem.model, self.problem.config, implicit)
         )
         self.materials = self.problem.model.materials
+        fields = scenario.run.fields
+        self.frame_fields = list(DEFAULT_FRAME_FIELDS if fields is None else fields)
+        self._history_names = state_names(self.materials)
+        self.startup_s = wallclock.perf_counter() - created
+        """Seconds spent building the problem (seeding) and the solver; :meth:`run` adds the
+        initial state and the kernel loading."""
 
     # ------------------------------------------------------------------ output
     def _write_frame(self, data: dict[str, Any]) -> None:
+        """Write a frame of ``data`` (on the writer thread)."""
         fields = particle_fields(data, self.materials)
         fields["body"] = self.problem.body  # to_numpy() returns the original particle order
+        fields = select_fields(fields, self.frame_fields, self._history_names)
         self.series.write(float(data["time"]), np.asarray(data["x"]), fields)
-        self.history.append(data)
 
-    def _checkpoint(self, data: dict[str, Any]) -> None:
+    def _write_checkpoint(self, data: dict[str, Any], wall: float) -> None:
+        """Write the checkpoint of ``data`` (on the writer thread, after every frame queued before it)."""
         meta = {
             "problem_hash": problem_hash(self.scenario),
             "materials": material_hashes(self.scenario),
@@ -156,10 +178,27 @@ class Runner:
             "time": float(data["time"]),
             "step": int(data["step"]),
             "frames": self.series.frames,
-            "wall_s": self._wall(),
+            "wall_s": wall,
         }
         write_checkpoint(self.out / CHECKPOINT, data, meta)
-        self.checkpoint_at = (float(data["time"]), int(data["step"]))
+
+    def _output(self, state: State, frame: bool, history: bool, checkpoint: bool) -> dict[str, Any]:
+        """Copy ``state`` to the host and queue its frame, history row and checkpoint as due;
+        returns the copy. The time spent here (copy, waiting for room in the queue) is output time."""
+        t0 = wallclock.perf_counter()
+        data = state.to_numpy()
+        when = f"t = {state.time:.6g} s (step {state.step})"
+        if frame:
+            self.frame_at = state.time
+            self.writer.submit(f"the frame at {when}", self._write_frame, data)
+        if history:
+            self.history_at = state.step
+            self.writer.submit(f"the history row at {when}", self.history.append, data)
+        if checkpoint:
+            self.checkpoint_at = (state.time, state.step)
+            self.writer.submit(f"the checkpoint at {when}", self._write_checkpoint, data, self._wall())
+        self.output_s += wallclock.perf_counter() - t0
+        return data
 
     def _wall(self) -> float:
         return self.wall_before + wallclock.perf_counter() - self.clock0
@@ -199,13 +238,19 @@ class Runner:
         self.history.truncate(step)
         self.wall_before = wall
         self.checkpoint_at = (time, step)
+        self.frame_at = frames[-1][0] if frames else -math.inf
+        self.history_at = step
         return state
 
     # ------------------------------------------------------------------ loop
     def run(
-        self, restart: bool = False, progress: Callable[[Progress], None] | None = None, overwrite: bool = False
+        self, restart: bool = False, progress: Callable[[Progress], None] | None = None, overwrite: bool = False,
+        kernels: Callable[[int, int], None] | None = None,
     ) -> RunResult:
         """Run to ``run.end_time`` (or ``run.max_steps``); see the module docstring.
+
+        ``progress(Progress)`` is called after every step, ``kernels(done, total)`` while the
+        solver's kernels load before the first step (on a cold kernel cache: compile).
 
         Raises :class:`~tissuempm.io.CheckpointError` when ``restart`` finds no usable checkpoint
         and :class:`~tissuempm.scenarios.run_folder.OutputFolderError` when the output folder
@@ -213,69 +258,82 @@ class Runner:
         in both cases nothing is created or changed.
         """
         run = self.scenario.run
+        started = wallclock.perf_counter()
         run_folder.check(self.out, restart=restart, overwrite=overwrite)
         self.series = VTUSeries(self.out, SERIES)
         rigid = {i: n for i, n in enumerate(self.problem.material_names) if self.problem.model.is_rigid(i)}
         self.history = HistoryLog(self.out / HISTORY, rigid)
         self.clock0, self.wall_before = wallclock.perf_counter(), 0.0
-        if restart:
-            state = self._resume()
-            restarted_from: float | None = state.time
-        else:
-            self.out.mkdir(parents=True, exist_ok=True)
-            run_folder.clear(self.out)
-            state = self.solver.initial_state(self.problem.particles)
-            restarted_from = None
-            data = state.to_numpy()
-            self._write_frame(data)
-            self._checkpoint(data)
-        write_json(self.out / SCENARIO, self.scenario.model_dump(mode="json", by_alias=True))
-
-        next_frame = _next_multiple(state.time, run.frame_interval)
-        next_ckpt = _next_multiple(state.time, run.checkpoint_every)
-        first_step, status, message, instability = state.step, "completed", "", None
-        self.clock0 = wallclock.perf_counter()
+        self.output_s, self.frame_at, self.history_at = 0.0, -math.inf, -1
+        self.writer = BackgroundWriter(depth=2)
         try:
-            while state.time < run.end_time * (1.0 - 1e-12):
-                if run.max_steps is not None and state.step >= run.max_steps:
-                    status = "max_steps"
-                    break
-                dt = self.solver.stable_dt(state)
-                self.solver.step(state, dt, self.problem.loading.at(state.time + 0.5 * dt))  # mid-step loads
-                frame_due = state.time >= next_frame * (1.0 - 1e-12)
-                ckpt_due = state.time >= next_ckpt * (1.0 - 1e-12)
-                if frame_due or ckpt_due:
-                    data = state.to_numpy()
-                    if frame_due:
-                        self._write_frame(data)
-                        next_frame = _next_multiple(state.time, run.frame_interval)
-                    if ckpt_due:
-                        self._checkpoint(data)
-                        next_ckpt = _next_multiple(state.time, run.checkpoint_every)
-                if progress is not None:
-                    elapsed = wallclock.perf_counter() - self.clock0
-                    rate = (state.step - first_step) / elapsed if elapsed > 0 else 0.0
-                    progress(Progress(state.time, run.end_time, state.step, dt, rate))
-        except InstabilityError as e:
-            status, message = "unstable", str(e)
-            instability = {
-                "particle": e.particle,
-                "position": None if e.position is None else [float(c) for c in np.ravel(e.position)],
-                "reason": e.reason,
-                "time": state.time,
-                "step": state.step,
-            }
+            if restart:
+                state = self._resume()
+                restarted_from: float | None = state.time
+            else:
+                self.out.mkdir(parents=True, exist_ok=True)
+                run_folder.clear(self.out)
+                state = self.solver.initial_state(self.problem.particles)
+                restarted_from = None
+            write_json(self.out / SCENARIO, self.scenario.model_dump(mode="json", by_alias=True))
+            if not isinstance(self.solver, ImplicitSolver):  # a cold cache compiles here, not in the first step
+                self.solver.load_kernels(kernels)
+            startup = self.startup_s + wallclock.perf_counter() - started
+            self.clock0 = wallclock.perf_counter()
+            if not restart:
+                self._output(state, frame=True, history=True, checkpoint=True)
 
-        final = None
-        if status != "unstable":  # the last state: a frame and a checkpoint unless just written
-            final = state.to_numpy()
-            if self.series.frames[-1][0] < state.time:
-                self._write_frame(final)
-            if self.checkpoint_at[1] != state.step:
-                self._checkpoint(final)
+            next_frame = _next_multiple(state.time, run.frame_interval)
+            next_row = _next_multiple(state.time, run.history_every)
+            next_ckpt = _next_multiple(state.time, run.checkpoint_every)
+            first_step, status, message, instability = state.step, "completed", "", None
+            try:
+                while state.time < run.end_time * (1.0 - 1e-12):
+                    if run.max_steps is not None and state.step >= run.max_steps:
+                        status = "max_steps"
+                        break
+                    dt = self.solver.stable_dt(state)
+                    # reaction shares only for a step that ends at an output time (or is the last)
+                    due = min(next_frame, next_row, next_ckpt, run.end_time)
+                    last = run.max_steps is not None and state.step + 1 >= run.max_steps
+                    self.solver.reactions = last or state.time + dt >= due * (1.0 - 1e-12)
+                    self.solver.step(state, dt, self.problem.loading.at(state.time + 0.5 * dt))  # mid-step loads
+                    frame_due = state.time >= next_frame * (1.0 - 1e-12)
+                    row_due = state.time >= next_row * (1.0 - 1e-12)
+                    ckpt_due = state.time >= next_ckpt * (1.0 - 1e-12)
+                    if frame_due or row_due or ckpt_due:
+                        self._output(state, frame_due, row_due, ckpt_due)
+                        next_frame = _next_multiple(state.time, run.frame_interval) if frame_due else next_frame
+                        next_row = _next_multiple(state.time, run.history_every) if row_due else next_row
+                        next_ckpt = _next_multiple(state.time, run.checkpoint_every) if ckpt_due else next_ckpt
+                    if progress is not None:
+                        elapsed = wallclock.perf_counter() - self.clock0
+                        rate = (state.step - first_step) / elapsed if elapsed > 0 else 0.0
+                        progress(Progress(state.time, run.end_time, state.step, dt, rate))
+            except InstabilityError as e:
+                status, message = "unstable", str(e)
+                instability = {
+                    "particle": e.particle,
+                    "position": None if e.position is None else [float(c) for c in np.ravel(e.position)],
+                    "reason": e.reason,
+                    "time": state.time,
+                    "step": state.step,
+                }
+
+            final = None
+            if status != "unstable":  # the last state: a frame, a history row and a checkpoint unless just written
+                final = self._output(state, self.frame_at < state.time, self.history_at != state.step,
+                                     self.checkpoint_at[1] != state.step)  # fmt: skip
+            t0 = wallclock.perf_counter()
+            self.writer.close()  # every file on disk (raises OutputError if a write failed)
+            self.output_s += wallclock.perf_counter() - t0
+        finally:
+            self.writer.close(quiet=True)
         wall = wallclock.perf_counter() - self.clock0
+        timing = {"start_up_s": startup, "solver_s": wall - self.output_s, "output_s": self.output_s,
+                  "writer_s": self.writer.busy_s}  # fmt: skip
         summary = self._summary(status, message, state, state.step - first_step, wall, instability,
-                                restarted_from, final)
+                                restarted_from, final, timing)
         write_json(self.out / SUMMARY, summary)
         return RunResult(status, state.time, state.step, self.out, message, summary)
 
@@ -283,7 +341,10 @@ class Runner:
     def _summary(
         self, status: str, message: str, state: State, steps_here: int, wall: float,
         instability: dict[str, Any] | None, restarted_from: float | None, final: dict[str, Any] | None,
+        timing: dict[str, float],
     ) -> dict[str, Any]:
+        """``wall`` [s]: the stepping loop with its output; ``timing``: its split (solver, output on the
+        stepping thread, the writer thread's busy time, overlapped) and the start-up before it."""
         cfg = self.problem.config
         names = self.problem.material_names
         n = self.problem.particles.n
@@ -298,6 +359,8 @@ class Runner:
             "wall_s": self.wall_before + wall,
             "steps_per_s": steps_here / wall if wall > 0 else None,
             "particle_steps_per_s": n * steps_here / wall if wall > 0 else None,
+            "solver_particle_steps_per_s": n * steps_here / timing["solver_s"] if timing["solver_s"] > 0 else None,
+            "timing": timing,
             "restarted_from": restarted_from,
             "warnings": self.warnings,
             "device": cfg.device,

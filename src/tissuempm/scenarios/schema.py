@@ -429,11 +429,17 @@ class ContactSection(Section):
 
 
 class RunSection(Section):
-    """``[run]``: duration, output and checkpoint intervals."""
+    """``[run]``: duration, output and checkpoint intervals, frame fields."""
 
     end_time: Annotated[Time, Field(gt=0.0)]
     output_interval: Annotated[Time, Field(gt=0.0)] | None = None
     checkpoint_interval: Annotated[Time, Field(gt=0.0)] | None = None
+    history_interval: Annotated[Time, Field(gt=0.0)] | None = None
+    """Interval [s] between rows of ``history.csv`` (default: one per frame)."""
+    fields: list[str] | None = None
+    """Particle fields of a VTU frame (names of :data:`tissuempm.io.frames.FRAME_FIELDS`,
+    ``"state"`` for the history variables, ``"all"``); default
+    :data:`tissuempm.io.frames.DEFAULT_FRAME_FIELDS`. Checkpoints hold every field."""
     max_steps: Annotated[int, Field(ge=1)] | None = None
     max_particles: Annotated[int, Field(ge=1)] | None = None
     """Largest particle count the run may seed (default: as many as fit in the memory of the
@@ -449,6 +455,18 @@ class RunSection(Section):
     def checkpoint_every(self) -> float:
         """Interval [s] between checkpoints (default: 10 over the run)."""
         return self.checkpoint_interval if self.checkpoint_interval is not None else self.end_time / 10.0
+
+    @property
+    def history_every(self) -> float:
+        """Interval [s] between history rows (default: the frame interval)."""
+        return self.history_interval if self.history_interval is not None else self.frame_interval
+
+    @field_validator("fields")
+    @classmethod
+    def _fields(cls, names: list[str] | None) -> list[str] | None:
+        from tissuempm.io.frames import check_fields
+
+        return None if names is None else check_fields(names)
 
 
 # ---------------------------------------------------------------------------- materials

@@ -1,0 +1,82 @@
+"""Run output off the critical path: timing split, frame fields, history interval, failed writes."""
+
+import json
+
+import meshio
+import numpy as np
+import pytest
+from scenario_testlib import scenario
+from test_runner import BLOCK
+
+from tissuempm.io import HistoryLog, VTUSeries, read_checkpoint, read_pvd
+from tissuempm.io.background import OutputError
+from tissuempm.io.frames import DEFAULT_FRAME_FIELDS, state_names
+from tissuempm.scenarios.runner import CHECKPOINT, Runner
+
+
+@pytest.fixture(scope="module")
+def fine_history_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("fine")
+    job = Runner(scenario(BLOCK, history_interval="0.1 ms"), out)
+    return job, job.run(), out
+
+
+def test_summary_splits_the_wall_time(fine_history_run):
+    _, result, out = fine_history_run
+    summary = json.loads((out / "summary.json").read_text())
+    t = summary["timing"]
+    assert set(t) == {"start_up_s", "solver_s", "output_s", "writer_s"}
+    assert all(v >= 0 for v in t.values()) and t["solver_s"] > 0
+    # the stepping loop's wall time is the solver's plus the output's on the stepping thread
+    assert t["solver_s"] + t["output_s"] == pytest.approx(summary["wall_s"], rel=1e-9)
+    assert summary["solver_particle_steps_per_s"] >= summary["particle_steps_per_s"]
+
+
+def test_history_rows_at_their_own_interval(fine_history_run):
+    _, result, out = fine_history_run
+    frames = read_pvd(out / "particles.pvd")
+    rows = HistoryLog(out / "history.csv", {1: "plate"}).read()
+    assert len(frames) == 5  # every 0.5 ms and the end, as without history_interval
+    assert len(rows["time"]) == 21  # every 0.1 ms over 2 ms, plus time 0
+    assert np.all(np.diff(rows["time"]) > 0) and rows["step"][-1] == result.steps
+    # reaction shares are computed at the rows' steps: the plate stops the gel
+    assert np.any(rows["reaction_plate_x"] > 0)
+
+
+def test_frames_carry_the_default_fields_and_checkpoints_everything(fine_history_run):
+    job, _, out = fine_history_run
+    frame = meshio.read(out / read_pvd(out / "particles.pvd")[-1][1])
+    expected = (set(DEFAULT_FRAME_FIELDS) - {"state"}) | state_names(job.materials)
+    assert set(frame.point_data) == expected
+    arrays, _ = read_checkpoint(out / CHECKPOINT)
+    assert {"F", "L", "stress", "x0", "v", "state"} <= set(arrays)
+
+
+def test_fields_choose_what_a_frame_carries(tmp_path):
+    Runner(scenario(BLOCK, end_time="0.2 ms", fields=["von_mises", "failure"]), tmp_path).run()
+    frame = meshio.read(tmp_path / read_pvd(tmp_path / "particles.pvd")[-1][1])
+    assert set(frame.point_data) == {"von_mises", "failure"}
+
+
+def test_unknown_field_is_a_schema_error():
+    from tissuempm.scenarios import ScenarioError
+
+    with pytest.raises((ScenarioError, ValueError), match="vonmises"):
+        scenario(BLOCK, fields=["vonmises"])
+
+
+def test_a_failed_frame_write_stops_the_run_and_keeps_the_checkpoint(tmp_path, monkeypatch):
+    write = VTUSeries.write
+
+    def fail_third(self, time, points, fields, compression=None):
+        if len(self.frames) == 2:
+            raise OSError(28, "No space left on device")
+        return write(self, time, points, fields, compression)
+
+    monkeypatch.setattr(VTUSeries, "write", fail_third)
+    with pytest.raises(OutputError, match=r"frame at t = .*No space left on device") as err:
+        Runner(scenario(BLOCK), tmp_path).run()
+    assert isinstance(err.value, OSError)  # the CLI reports it as a failed write, exit status 2
+    arrays, meta = read_checkpoint(tmp_path / CHECKPOINT)  # complete: written before the failure
+    assert meta["step"] > 0 and np.all(np.isfinite(arrays["x"]))
+    assert not (tmp_path / "summary.json").exists()
