@@ -94,3 +94,19 @@ def test_tensile_at_the_seed_resolution(tmp_path):
         assert max(m[grid]["first_x0_mm"]) < 3.0
     a, b = m["reset"]["first_failure_mm"], m["no_reset"]["first_failure_mm"]
     assert abs(a - b) / a < 0.10
+
+
+@pytest.mark.slow
+def test_shear_explicit_against_implicit_with_failure(tmp_path):
+    """The four shear runs at the reduced resolution (2 mm cells; about 10 min on 2 cores, the implicit
+    failure run most of it): first failure within 5 % between the integrators (measured 13.65 and
+    14.05 mm, 2.9 %), at the corners under tension for both, in the matrix. The failed sets overlap with
+    a Jaccard index of 0.55-0.66 between 16 and 20 mm (the issue's goal of 0.8 is not met:
+    docs/validation.md says why); the check guards the similarity of the patterns at 0.5."""
+    mod = script("seed_shear")
+    m = mod.study("2 mm", 2, "1 ms", 1.0e-4, tmp_path, list(mod.RUNS))
+    assert m["first_failure_difference"] < 0.05
+    for name in ("explicit", "implicit"):
+        onset = m[f"onset_{name}"]
+        assert max(onset["corner_distance_mm"]) < 5.0 and onset["matrix_first"]
+    assert min(v["jaccard"] for k, v in m["jaccard"].items() if float(k.split()[0]) >= 16) > 0.5
