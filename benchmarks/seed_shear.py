@@ -30,8 +30,8 @@ STOPS_MM = (12.0, 14.0, 16.0, 18.0, 20.0, 24.0, 28.0)
 NO_FAILURE = ["materials.myocardium.gamma_max=1000", "materials.myocardium.eps_max=1000"]
 
 
-def variant(cell: str, ppc: int, integrator: str, failure: bool, dt: str) -> list[str]:
-    sets = [f'grid.cell_size="{cell}"', 'run.end_time="0.3 s"'] + [f"body[{i}].particles_per_cell={ppc}" for i in range(3)]
+def variant(cell: str, ppc: int, integrator: str, failure: bool, dt: str, end: str = "0.3 s") -> list[str]:
+    sets = [f'grid.cell_size="{cell}"', f'run.end_time="{end}"'] + [f"body[{i}].particles_per_cell={ppc}" for i in range(3)]
     if integrator == "implicit":
         sets += ["solver.integrator=implicit", f'solver.implicit={{dt="{dt}"}}']
     return sets + ([] if failure else NO_FAILURE)
@@ -58,13 +58,16 @@ def main() -> None:
     study(args.cell, args.ppc, args.dt, args.check, out, [r for r in args.runs.split(",") if r])
 
 
-def study(cell: str, ppc: int, dt: str, check: float, out: Path, todo: list[str]) -> dict | None:
-    """Run the variants in ``todo`` (the others are read from ``out``); metrics once all four exist."""
+def study(cell: str, ppc: int, dt: str, check: float, out: Path, todo: list[str],
+          stops_mm: tuple[float, ...] = STOPS_MM) -> dict | None:  # fmt: skip
+    """Run the variants in ``todo`` (the others are read from ``out``) to the last of ``stops_mm``
+    (relative grip travel [mm] of the snapshots); metrics once all four exist."""
     out.mkdir(parents=True, exist_ok=True)
-    stops = [d * 1e-3 for d in STOPS_MM]
+    stops = [d * 1e-3 for d in stops_mm]
+    end = f"{(stops_mm[-1] + 2.0) * 1e-3 / 0.1} s"  # grips apart at 0.1 m/s
     for key in todo:
         integrator, kind = key.split("_")
-        sc = load_scenario(EXAMPLE, variant(cell, ppc, integrator, kind == "failure", dt))
+        sc = load_scenario(EXAMPLE, variant(cell, ppc, integrator, kind == "failure", dt, end))
         t0 = time.perf_counter()
         tr = track_failure(sc, "sheet", "grip_top", "grip_bottom", check_interval=check, snapshots=stops,
                            end_displacement=stops[-1])  # fmt: skip
