@@ -149,25 +149,24 @@ def track_failure(
         x = np.asarray(st.x.numpy(), dtype=float)
         return abs(grip(ids, x, moving) - grip(ids, x, reference)), ids, x
 
-    def codes() -> np.ndarray:
+    def history(cols: dict[int, int]) -> np.ndarray:
+        """Each particle's history value in column ``cols[material]`` (0 where its law has none)."""
         hist = st.history.numpy()
         mat = st.material.numpy()
-        code = np.zeros(st.n)
-        for k, c in fcol.items():
+        out = np.zeros(st.n)
+        for k, c in cols.items():
             sel = mat == k
-            code[sel] = hist[sel, c]
-        return np.rint(code).astype(int)
+            out[sel] = hist[sel, c]
+        return out
+
+    def codes() -> np.ndarray:
+        return np.rint(history(fcol)).astype(int)
 
     def snapshot(d: float, ids: np.ndarray, x: np.ndarray, code: np.ndarray) -> Snapshot:
         order = np.argsort(ids)
         sel = body_of[ids[order]] == bid[body]
         idx = order[sel]
-        hist = st.history.numpy()
-        mat = st.material.numpy()
-        gam = np.zeros(st.n)
-        for k, c in gcol.items():
-            m = mat == k
-            gam[m] = hist[m, c]
+        gam = history(gcol)
         F = np.asarray(st.F.numpy(), dtype=float)[idx]
         a0 = np.asarray(st.fiber.numpy(), dtype=float)[idx]
         lam = np.linalg.norm(np.einsum("nij,nj->ni", F, a0), axis=1)

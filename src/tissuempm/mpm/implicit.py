@@ -50,6 +50,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 import warp as wp
 
+from tissuempm.materials.kinematics import mat66
 from tissuempm.mpm.config import Control, SolverConfig
 from tissuempm.mpm.errors import InstabilityError
 from tissuempm.mpm.implicit_kernels import implicit_kernels
@@ -361,8 +362,6 @@ class ImplicitSolver(ExplicitSolver):
 
     def _scratch(self, st: State) -> None:
         if getattr(self, "_F", None) is None or self._F.shape[0] != st.n:
-            from tissuempm.materials.kinematics import mat66
-
             self._F, self._L, self._sig = (wp.zeros(st.n, dtype=self.t.mat33, device=self.device) for _ in range(3))
             self._c = wp.zeros(st.n, dtype=mat66(self.t), device=self.device)
 
@@ -375,8 +374,7 @@ class ImplicitSolver(ExplicitSolver):
         """Particle update of a converged step, reactions on the constraints, history swap."""
         s = self.t.scalar
         n = self.n_nodes
-        full = lambda a: np.zeros((n, 3)) if a is None else a  # noqa: E731
-        dv, vn, an = full(None), full(None), full(None)
+        dv, vn, an = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
         dv[act] = (v_new - v0).reshape(-1, 3)
         vn[act] = v_new.reshape(-1, 3)
         an[act] = a_new.reshape(-1, 3)
