@@ -53,24 +53,28 @@ def main() -> None:
     ap.add_argument("--check", type=float, default=0.1e-3, help="grip travel between failure checks [m]")
     ap.add_argument("--out", default=None)
     ap.add_argument("--runs", default=",".join(RUNS), help="runs to do now (the others are read from --out)")
+    ap.add_argument("--elastic-to", type=float, default=None,
+                    help="grip travel [mm] where the no-failure runs stop (they only supply the map at the onset)")  # fmt: skip
     args = ap.parse_args()
     out = Path(args.out) if args.out else ROOT / "docs" / "figures"
-    study(args.cell, args.ppc, args.dt, args.check, out, [r for r in args.runs.split(",") if r])
+    study(args.cell, args.ppc, args.dt, args.check, out, [r for r in args.runs.split(",") if r], elastic_mm=args.elastic_to)
 
 
 def study(cell: str, ppc: int, dt: str, check: float, out: Path, todo: list[str],
-          stops_mm: tuple[float, ...] = STOPS_MM) -> dict | None:  # fmt: skip
+          stops_mm: tuple[float, ...] = STOPS_MM, elastic_mm: float | None = None) -> dict | None:  # fmt: skip
     """Run the variants in ``todo`` (the others are read from ``out``) to the last of ``stops_mm``
-    (relative grip travel [mm] of the snapshots); metrics once all four exist."""
+    (relative grip travel [mm] of the snapshots), the no-failure ones only to ``elastic_mm``
+    when given; metrics once all four exist."""
     out.mkdir(parents=True, exist_ok=True)
     stops = [d * 1e-3 for d in stops_mm]
-    end = f"{(stops_mm[-1] + 2.0) * 1e-3 / 0.1} s"  # grips apart at 0.1 m/s
     for key in todo:
         integrator, kind = key.split("_")
+        mine = [d for d in stops_mm if kind == "failure" or elastic_mm is None or d <= elastic_mm] or [stops_mm[0]]
+        end = f"{(mine[-1] + 2.0) * 1e-3 / 0.1} s"  # grips apart at 0.1 m/s
         sc = load_scenario(EXAMPLE, variant(cell, ppc, integrator, kind == "failure", dt, end))
         t0 = time.perf_counter()
-        tr = track_failure(sc, "sheet", "grip_top", "grip_bottom", check_interval=check, snapshots=stops,
-                           end_displacement=stops[-1])  # fmt: skip
+        tr = track_failure(sc, "sheet", "grip_top", "grip_bottom", check_interval=check,
+                           snapshots=[d * 1e-3 for d in mine], end_displacement=mine[-1] * 1e-3)  # fmt: skip
         (out / f"shear_{key}.pkl").write_bytes(pickle.dumps(tr))
         print(key, f"{time.perf_counter() - t0:.0f} s", tr.steps, "steps, first failure at",
               f"{1e3 * tr.first_failure_displacement():.2f} mm" if tr.first else "none", flush=True)  # fmt: skip

@@ -78,6 +78,32 @@ def test_vibrating_bar_newmark_period_and_energy():
     assert np.abs(energy / e0 - 1).max() < 0.01
 
 
+def test_linear_solvers_agree_and_auto_falls_back_to_the_direct_solver(monkeypatch):
+    """SuperLU, Jacobi CG and ``auto`` with CG cut off after one iteration (so every solve falls back
+    to SuperLU) give the same Newmark steps of a stretched Weiss block: displacements agree to 1e-5
+    of the largest (the Newton tolerance is 1e-6 of the force and of u, CG's 1e-7)."""
+    import tissuempm.mpm.implicit as implicit
+
+    h = 1e-3
+    model = Model(grid=Grid(origin=(0, 0, 0), cell_size=h, shape=(10, 3, 3)), materials=[Weiss.example()],
+                  boundaries=[GridBoundary(0, "lower", "fixed")])  # fmt: skip
+    pd = block((0.0, 0.0, 0.0), (6e-3, 3e-3, 3e-3), 0.5e-3, fiber=(1.0, 0.0, 0.0))
+    out = {}
+    for name, solver, maxiter in (("direct", "direct", 2000), ("cg", "cg", 2000), ("fallback", "auto", 1)):
+        monkeypatch.setattr(implicit, "CG_MAXITER", maxiter)
+        s = ImplicitSolver(model, SolverConfig(shape="gimp", threads=1, gravity=(500.0, 0, 0)),
+                           ImplicitConfig(dt=2e-3, linear_solver=solver))  # fmt: skip
+        st = s.initial_state(pd)
+        for _ in range(4):
+            s.step(st)
+        out[name] = st.to_numpy()["x"] - pd.x
+        assert (s.direct_fallbacks > 0) == (name == "fallback")
+    scale = np.abs(out["direct"]).max()
+    assert scale > 1e-5  # the block moved
+    for name in ("cg", "fallback"):
+        assert np.abs(out[name] - out["direct"]).max() < 1e-5 * scale, name
+
+
 def test_column_quasi_static_equilibrium():
     """Column under its own weight (Bardenhagen & Kober 2004) in one quasi-static implicit step: the
     tip displacement within 0.5 % of u(X) = -(rho g / E)(L X - X^2/2) (the explicit test's bound, met

@@ -33,12 +33,13 @@ the run stops with an :class:`InstabilityError` that names the time, the iterati
 and the node with the largest residual.
 
 The linear systems are assembled into 3 x 3 blocks of the active nodes by a Warp kernel and
-solved with SciPy's sparse direct solver (SuperLU) up to :data:`DIRECT_MAX` unknowns: on the
-seed-resolution shear test (12,495 unknowns, 764,000 nonzeros) it takes 0.34-0.42 s of CPU a
-solve, against 0.35-0.50 s for ILU-preconditioned CG, 0.6-1.5 s for smoothed-aggregation AMG
-(pyamg) CG and 0.1-2.0 s for Jacobi CG (78-90 iterations, erratic on a loaded machine), and it
-needs no tolerance and no extra dependency (docs/mpm.md). Larger systems get Jacobi CG
-(``linear_solver = "cg"``), whose memory grows only with the matrix.
+solved, with ``linear_solver = "auto"``, by Jacobi-preconditioned conjugate gradients for the
+dynamic form (its mass term 4 M / dt^2 keeps the matrix well conditioned) with SciPy's sparse
+direct solver (SuperLU, minimum-degree ordering of K + K^T for the symmetric tangents) as the
+fallback when CG stalls, and by SuperLU for the quasi-static form up to :data:`DIRECT_MAX`
+unknowns. On the seed-resolution shear test (13,159 unknowns, 1.6 million nonzeros) a Jacobi-CG
+solve takes 0.1 s (93 iterations) against 1.1 s for SuperLU with that ordering and 3.3 s with
+SciPy's default column ordering (``python benchmarks/implicit_solvers.py``, docs/mpm.md).
 """
 
 import math
@@ -65,6 +66,8 @@ DIRECT_MAX = 200_000
 CG_RTOL = 1.0e-7
 """Relative residual of the CG solves: an inexact Newton step (forcing term well below the
 Newton tolerance, so the iteration still converges at its quadratic rate to 1e-6)."""
+CG_MAXITER = 2000
+"""CG iterations before ``"auto"`` falls back to the direct solver (``"cg"`` halves the step)."""
 QS_REGULARISATION = 1.0e-9
 """Diagonal shift of the quasi-static iteration matrix, relative to its largest diagonal entry."""
 
@@ -86,8 +89,9 @@ class ImplicitConfig:
     dt_min
         Smallest step [s] before the run stops (default dt / 1024).
     linear_solver
-        ``"auto"`` (default: ``"direct"`` up to :data:`DIRECT_MAX` unknowns, ``"cg"`` beyond),
-        ``"direct"`` (SuperLU) or ``"cg"`` (Jacobi-preconditioned conjugate gradients).
+        ``"auto"`` (default: Jacobi CG with a SuperLU fallback for the dynamic form; SuperLU up
+        to :data:`DIRECT_MAX` unknowns and CG beyond for the quasi-static form), ``"direct"``
+        (SuperLU) or ``"cg"`` (Jacobi-preconditioned conjugate gradients).
     """
 
     dt: float
@@ -110,11 +114,12 @@ class ImplicitConfig:
             raise ValueError(f"linear_solver = {self.linear_solver!r} is not valid: choose one of {', '.join(LINEAR_SOLVERS)}")
 
     def solver(self, unknowns: int) -> str:
-        """The linear solver ``"auto"`` resolves to for a system of ``unknowns``: SuperLU up to
-        :data:`DIRECT_MAX` unknowns (fill-in memory), Jacobi-CG beyond."""
+        """The linear solver tried first for a system of ``unknowns``: ``"cg"`` for the dynamic
+        form (``"auto"`` falls back to SuperLU when it stalls), SuperLU for the quasi-static form
+        up to :data:`DIRECT_MAX` unknowns (fill-in memory), CG beyond."""
         if self.linear_solver != "auto":
             return self.linear_solver
-        return "direct" if unknowns <= DIRECT_MAX else "cg"
+        return "cg" if self.dynamic or unknowns > DIRECT_MAX else "direct"
 
     @property
     def smallest_dt(self) -> float:
@@ -176,6 +181,7 @@ class ImplicitSolver(ExplicitSolver):
         self.last_iterations = 0
         self.iterations = 0  # total Newton iterations
         self.retries = 0  # halved steps
+        self.direct_fallbacks = 0  # CG solves handed to SuperLU
 
     # ------------------------------------------------------------------------------ time step
     def stable_dt(self, state: State) -> float:
@@ -288,14 +294,23 @@ class ImplicitSolver(ExplicitSolver):
         return K.tocsr()
 
     def _linear_solve(self, K: sp.csr_matrix, r: np.ndarray) -> np.ndarray:
-        if self.implicit.solver(K.shape[0]) == "cg":
+        """Solve K x = r (see the module docstring for the choice of solver)."""
+        n = K.shape[0]
+        if self.implicit.solver(n) == "cg":
             d = K.diagonal()
             M = sp.diags(1.0 / np.where(d > 0, d, 1.0))
-            x, info = spla.cg(K, r, rtol=CG_RTOL, maxiter=20 * K.shape[0], M=M)
-            if info != 0:
+            fallback = self.implicit.linear_solver == "auto" and n <= DIRECT_MAX
+            x, info = spla.cg(K, r, rtol=CG_RTOL, maxiter=CG_MAXITER if fallback else 20 * n, M=M)
+            if info == 0:
+                return x
+            if not fallback:
                 raise NotConverged(f"CG did not converge (info {info})")
-            return x
-        x = spla.spsolve(K.tocsc(), r)
+            self.direct_fallbacks += 1
+        order = "MMD_AT_PLUS_A" if self._symmetric else "COLAMD"
+        try:
+            x = spla.splu(K.tocsc(), permc_spec=order, options={"SymmetricMode": bool(self._symmetric)}).solve(r)
+        except RuntimeError as err:  # exactly singular
+            raise NotConverged(f"singular stiffness matrix ({err})") from None
         if not np.all(np.isfinite(x)):
             raise NotConverged("singular stiffness matrix")
         return x
@@ -394,7 +409,7 @@ class ImplicitSolver(ExplicitSolver):
         wp.launch(self.ik.finish, dim=st.n, device=self.device, inputs=[
             st.x, st.v, st.acc, st.vpic, st.size, st.F, st.material, st.fixed, self.mat_rigid, self.rigid_vel,
             self.n_u, self.n_dv, self.n_vnew, self.n_anew, self.origin, s(1.0 / self.h), self.dims, s(dt),
-            s(self.config.flip), self.lower, self.upper, st.bad, st.stress, self._sig, self._L, self._F,
+            s(self.config.flip), self.lower, self.upper, self.wall_lo, self.wall_hi, st.bad, st.stress, self._sig, self._L, self._F,
             st.volume0, st.work])  # fmt: skip
         wp.copy(st.F, self._F)
         wp.copy(st.L, self._L)
@@ -403,10 +418,11 @@ class ImplicitSolver(ExplicitSolver):
         self._check(st)
 
     def diagnostics(self, state: State) -> dict[str, Any]:
-        """The explicit solver's diagnostics plus ``newton_iterations`` (total), ``last_iterations``
-        and ``halved_steps``."""
+        """The explicit solver's diagnostics plus ``newton_iterations`` (total), ``last_iterations``,
+        ``halved_steps`` and ``direct_fallbacks`` (CG solves handed to SuperLU)."""
         out = super().diagnostics(state)
-        out.update(newton_iterations=self.iterations, last_iterations=self.last_iterations, halved_steps=self.retries)
+        out.update(newton_iterations=self.iterations, last_iterations=self.last_iterations, halved_steps=self.retries,
+                   direct_fallbacks=self.direct_fallbacks)  # fmt: skip
         return out
 
 

@@ -244,12 +244,13 @@ def implicit_kernels(t: WarpTypes, shape: str) -> Any:
         fixed: wp.array(dtype=wp.int32), mat_rigid: wp.array(dtype=wp.int32), rigid_vel: wp.array(dtype=vec3),
         u: wp.array(dtype=vec3), dv: wp.array(dtype=vec3), v_new: wp.array(dtype=vec3),
         a_new: wp.array(dtype=vec3), origin: vec3, inv_h: s, dims: wp.vec3i, dt: s, flip: s,
-        lower: vec3, upper: vec3, bad: wp.array(dtype=int), sig_old: wp.array(dtype=mat33),
+        lower: vec3, upper: vec3, wall_lo: vec3, wall_hi: vec3, bad: wp.array(dtype=int), sig_old: wp.array(dtype=mat33),
         sig_new: wp.array(dtype=mat33), L_new: wp.array(dtype=mat33), F_new: wp.array(dtype=mat33),
         vol0: wp.array(dtype=s), work: wp.array(dtype=s),
     ):  # fmt: skip
         """Particle update of a converged step: x += sum S u_i; v <- flip (v + sum S dv_i) +
-        (1 - flip) sum S v_i^new; a = sum S a_i^new (Guilkey & Weiss 2003); internal work
+        (1 - flip) sum S v_i^new; a = sum S a_i^new (Guilkey & Weiss 2003); x is kept on the grid
+        side of wall faces (``wall_lo``, ``wall_hi``, as in the explicit G2P); internal work
         += V (sigma_n + sigma_n+1)/2 : D dt. Rigid particles move with their material, fixed ones stay."""
         p = wp.tid()
         mat = material[p]
@@ -281,7 +282,7 @@ def implicit_kernels(t: WarpTypes, shape: str) -> Any:
                     sdv += w * dv[n]
                     sv += w * v_new[n]
                     sa += w * a_new[n]
-        xp = x[p] + su
+        xp = wp.min(wp.max(x[p] + su, wall_lo), wall_hi)
         x[p] = xp
         v[p] = flip * (v[p] + sdv) + (s(1.0) - flip) * sv
         vpic[p] = su / dt

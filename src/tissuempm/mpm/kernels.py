@@ -447,6 +447,8 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
         dims: wp.vec3i,
         lower: vec3,
         upper: vec3,
+        wall_lo: vec3,
+        wall_hi: vec3,
         begin: int,
         c: int,
         dt: s,
@@ -465,7 +467,9 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
                   ``F_ref`` there): F <- F + dt L_0 F_ref with L_0 = sum v_i (x) grad_0 S, and
                   L_p = L_0 F_ref F^-1 (``F_ref`` is not read otherwise).
         Every sum runs over the particle's own velocity field (``field``).
-        POSITION: x <- x + dt v_pic, check that the particle is inside the grid.
+        POSITION: x <- x + dt v_pic, projected back onto a wall face (slip or fixed: ``wall_lo``,
+                  ``wall_hi``; +-inf where there is none) that it crossed by round-off or FLIP
+                  drift, then checked to be inside the grid.
         REPROJECT (with MOVE): b_mm_i += S (m_p v_p, m_p) (MUSL), so the re-projection costs no second stencil.
         Rigid particles move with their material's velocity and keep F; fixed ones stay put.
         The nodal velocities are 4-vectors (last component 0) so the sums run in SIMD registers.
@@ -550,7 +554,7 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
                     if not (wp.ddot(sp, sp) == s(0.0)):  # NaN too
                         wp.atomic_min(bad, c, p)
         if wp.static(flags & POSITION):
-            xp = xp + dt * vpic_p[p]
+            xp = wp.min(wp.max(xp + dt * vpic_p[p], wall_lo), wall_hi)
             x[p] = xp
             inside = True
             for a in range(3):

@@ -125,6 +125,14 @@ class ExplicitSolver:
             self._bc_velocity[f] = b.velocity
             self._bc_face.append(f)
         self.bc_kind = wp.array(kinds, dtype=wp.int32, device=self.device)
+        # wall planes (slip and fixed faces): positions are kept on the grid side of them
+        lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
+        for a in range(3):
+            if kinds[2 * a] in (_BC_CODE["fixed"], _BC_CODE["slip"]):
+                lo[a] = grid.origin[a]
+            if kinds[2 * a + 1] in (_BC_CODE["fixed"], _BC_CODE["slip"]):
+                hi[a] = grid.upper[a]
+        self.wall_lo, self.wall_hi = self.t.vec3(*lo), self.t.vec3(*hi)
         self.bc_vel = warp_array(self._bc_velocity, "vec3", self.t, self.device)
         # global grid arrays
         z = lambda dt: wp.zeros(self.n_nodes, dtype=dt, device=self.device)  # noqa: E731
@@ -480,7 +488,7 @@ class ExplicitSolver:
                         e - b,
                         [x, st.v, st.vpic, st.F, F_ref, st.L, st.stress, st.size, st.material, st.field, st.fixed,
                          self.mat_rigid, self.rigid_vel, self.g_vinc, self.g_vnew, v_grad, st.mass, self._rows[c][0],
-                         self.origin, s(1.0 / self.h), self.dims, self.lower, self.upper, b, c * K.SLOT, s(dt),
+                         self.origin, s(1.0 / self.h), self.dims, self.lower, self.upper, self.wall_lo, self.wall_hi, b, c * K.SLOT, s(dt),
                          s(self.config.flip), st.bad],
                         c,
                     )  # fmt: skip
