@@ -11,20 +11,49 @@
     tissuempm study STUDY.toml [--out DIR] [--scheduler ADDRESS | --workers N] [--resume]
 """
 
+import importlib
 import json
 import warnings
 from pathlib import Path
 from typing import Annotated, Optional
 
+import click
 import numpy as np
 import typer
 from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
+from typer.core import TyperGroup
 
 from tissuempm import __version__
 
-app = typer.Typer(help="Soft-tissue injury simulation (MPM) and tissue material calibration.", no_args_is_help=True)
+LAZY_COMMANDS: dict[str, tuple[str, str]] = {
+    "calibrate": ("tissuempm.calibration.command", "calibrate"),
+    "run": ("tissuempm.scenarios.command", "run"),
+    "wound": ("tissuempm.analysis.command", "wound"),
+    "study": ("tissuempm.study.command", "study"),
+}
+"""Commands of the calibration, MPM, analysis and study subpackages: name -> (module, function),
+imported only when the command is named (``tissuempm run`` loads neither SciPy's optimizers nor Dask)."""
+
+
+class _LazyGroup(TyperGroup):
+    """The top-level group: :data:`LAZY_COMMANDS` are built from their modules on first use."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return [*super().list_commands(ctx), *(n for n in LAZY_COMMANDS if n not in self.commands)]
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> Optional[click.Command]:
+        if cmd_name in LAZY_COMMANDS and cmd_name not in self.commands:
+            module, name = LAZY_COMMANDS[cmd_name]
+            single = typer.Typer()
+            single.command(cmd_name)(getattr(importlib.import_module(module), name))
+            self.commands[cmd_name] = typer.main.get_command(single)
+        return super().get_command(ctx, cmd_name)
+
+
+app = typer.Typer(cls=_LazyGroup, help="Soft-tissue injury simulation (MPM) and tissue material calibration.",
+                  no_args_is_help=True)  # fmt: skip
 materials_app = typer.Typer(help="Browse the tissue material library and check stress-strain responses.",
                             no_args_is_help=True)
 app.add_typer(materials_app, name="materials")
@@ -290,19 +319,3 @@ def materials_plot(
     except OSError as exc:
         _fail(f"-o {output}: cannot write {target}: {exc.strerror or exc}")
     console.print(f"wrote {escape(str(written))}", highlight=False)
-
-
-def _register_commands() -> None:
-    """Commands of the calibration and MPM subpackages (imported here to keep them out of `materials`)."""
-    from tissuempm.analysis.command import wound
-    from tissuempm.calibration.command import calibrate
-    from tissuempm.scenarios.command import run
-    from tissuempm.study.command import study
-
-    app.command("calibrate")(calibrate)
-    app.command("run")(run)
-    app.command("wound")(wound)
-    app.command("study")(study)
-
-
-_register_commands()

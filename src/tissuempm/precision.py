@@ -11,9 +11,13 @@ float32 kernels::
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import functools
 import logging
+import os
 import re
+import sys
 from dataclasses import dataclass
 from typing import Any, Callable, Literal
 
@@ -74,11 +78,43 @@ def warp_types(precision: str = "float64") -> WarpTypes:
     return WarpTypes("float32", wp.float32, wp.vec3f, wp.mat33f, np.float32, wp.vec4f)
 
 
+def cuda_driver_present() -> bool:
+    """Whether the NVIDIA driver library loads (the names Warp's native start-up tries)."""
+    names = {"win32": ("nvcuda.dll",), "linux": ("libcuda.so", "libcuda.so.1")}.get(sys.platform, ())
+    for name in names:
+        try:
+            ctypes.CDLL(name)
+            return True
+        except OSError:
+            continue
+    return False
+
+
+@contextlib.contextmanager
+def _native_stderr_muted():
+    """Send file descriptor 2 to the null device (native ``fprintf(stderr)``, not only sys.stderr)."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
 @functools.cache
 def init_warp() -> None:
     """Initialise Warp once. Log messages below WARNING are silenced and reverse-mode
     code generation is off (tissuempm differentiates nothing through Warp), which
-    halves kernel compile time."""
+    halves kernel compile time. On a machine without the NVIDIA driver, Warp's native
+    "Could not find or load the NVIDIA CUDA driver" line is muted (the CPU needs none; a
+    solver asked for ``device = "cuda"`` there stops with its own error)."""
     wp.config.log_level = logging.WARNING
     wp.config.enable_backward = False
-    wp.init()
+    if sys.platform in ("win32", "linux") and not cuda_driver_present():
+        with _native_stderr_muted():
+            wp.init()
+    else:
+        wp.init()

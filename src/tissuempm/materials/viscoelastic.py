@@ -105,7 +105,6 @@ from typing import Any, Callable, ClassVar
 
 import numpy as np
 import warp as wp
-from scipy import integrate
 
 from tissuempm.materials.base import Material, ParameterError, StateVar, from_dict, parameter
 from tissuempm.materials.kinematics import kinematics
@@ -148,6 +147,8 @@ def _hereditary(
 
     f0(t) - sum_j (g_j/tau_j) int_0^t exp(-(t-s)/tau_j) f0(s) ds.
     """
+    from scipy import integrate  # on demand: a run does not need it (start-up time)
+
     out = f0(t)
     pts = [b for b in breakpoints if 0.0 < b < t] or None
     for gj, tj in zip(g, tau):

@@ -92,9 +92,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
-import scipy.special
 import warp as wp
-from scipy.optimize import brentq
 
 from tissuempm.materials.base import PRM_OFFSET, Material, ParameterError, copy_state, parameter
 from tissuempm.materials.invariant_hyperelastic import (
@@ -185,11 +183,13 @@ class Weiss(Material):
 
     def fiber_energy(self, lam: np.ndarray) -> np.ndarray:
         """F2(lam) = int_1^lam T(s)/s ds [J/m^3] (module docstring; zero for lam <= 1)."""
+        from scipy.special import expi  # SciPy on demand: a run does not need it (start-up time)
+
         lam = np.asarray(lam, dtype=float)
 
         def toe(x: np.ndarray) -> np.ndarray:
             x = np.clip(x, 1.0, self.lam_star)
-            ei = scipy.special.expi(self.C4 * x) - scipy.special.expi(self.C4)
+            ei = expi(self.C4 * x) - expi(self.C4)
             return self.C3 * (np.exp(-self.C4) * ei - np.log(x))
 
         lin = toe(np.array(self.lam_star)) + self.C5 * (lam - self.lam_star) + self.C6 * np.log(
@@ -248,6 +248,8 @@ class Weiss(Material):
         stretch the fiber; the fiber stiffens so 1 <= l2 <= lam^-1/2 and l2 is
         found by bracketing g on that interval (g(1) < 0, g(lam^-1/2) = T >= 0).
         """
+        from scipy.optimize import brentq  # on demand (start-up time of a run)
+
         lam = np.atleast_1d(np.asarray(stretch, dtype=float))
         l2 = lam**-0.5
         for i, x in enumerate(lam):

@@ -42,13 +42,13 @@ solve takes 0.1 s (93 iterations) against 1.1 s for SuperLU with that ordering a
 SciPy's default column ordering (``python benchmarks/implicit_solvers.py``, docs/mpm.md).
 """
 
+from __future__ import annotations
+
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 import warp as wp
 
 from tissuempm.materials.kinematics import mat66
@@ -59,6 +59,9 @@ from tissuempm.mpm.kernels import SLOT
 from tissuempm.mpm.model import Model
 from tissuempm.mpm.solver import ExplicitSolver
 from tissuempm.mpm.state import State
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 LINEAR_SOLVERS: tuple[str, ...] = ("auto", "direct", "cg")
 DIRECT_MAX = 200_000
@@ -284,6 +287,8 @@ class ImplicitSolver(ExplicitSolver):
 
     def _matrix(self, blocks: np.ndarray, act: np.ndarray, idx: np.ndarray) -> sp.csr_matrix:
         """Global stiffness of the active nodes from their blocks (BSR, then CSR)."""
+        import scipy.sparse as sp  # SciPy when an implicit step needs it (start-up time of explicit runs)
+
         nbr = act[:, None] + self._offsets[None, :]
         ok = (nbr >= 0) & (nbr < self.n_nodes)
         ok[ok] = idx[nbr[ok]] >= 0
@@ -295,6 +300,9 @@ class ImplicitSolver(ExplicitSolver):
 
     def _linear_solve(self, K: sp.csr_matrix, r: np.ndarray) -> np.ndarray:
         """Solve K x = r (see the module docstring for the choice of solver)."""
+        import scipy.sparse as sp
+        import scipy.sparse.linalg as spla
+
         n = K.shape[0]
         if self.implicit.solver(n) == "cg":
             d = K.diagonal()
@@ -346,7 +354,8 @@ class ImplicitSolver(ExplicitSolver):
             r_free = R[free]
             K = self._matrix(blocks, act, idx)[free][:, free]
             reg = 4.0 / dt**2 * mdof[free] if cfg.dynamic else QS_REGULARISATION * np.abs(K.diagonal()).max()
-            du = self._linear_solve((K + sp.diags(reg * np.ones(r_free.size))).tocsr(), r_free)
+            K.setdiag(K.diagonal() + reg)  # every active node couples to itself: no new entries
+            du = self._linear_solve(K, r_free)
             ua[free] += du
             self.iterations += 1
             r_rel = np.linalg.norm(r_free) / norm_f

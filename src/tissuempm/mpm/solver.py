@@ -48,7 +48,7 @@ from tissuempm.mpm.model import Model, ParticleData, RigidMaterial
 from tissuempm.mpm.reference_grid import ReferenceGrid, check_no_reset
 from tissuempm.mpm.shape_functions import GIMP_SHAPES
 from tissuempm.mpm.state import OPTIONAL_FIELDS, PARTICLE_FIELDS, State, warp_array
-from tissuempm.precision import init_warp, warp_types
+from tissuempm.precision import cuda_driver_present, init_warp, warp_types
 
 MIN_CHUNK = 4096
 """Smallest chunk (particles) worth its own thread and grid buffer."""
@@ -75,7 +75,8 @@ class ExplicitSolver:
         self.device = cfg.device
         self.is_cpu = cfg.device == "cpu"
         if not self.is_cpu and not wp.is_cuda_available():
-            raise RuntimeError(f"device = {cfg.device!r}: CUDA is not available")
+            raise RuntimeError(f"device = {cfg.device!r}: CUDA is not available on this machine"
+                               + ("" if cuda_driver_present() else " (no NVIDIA driver found)"))
         self.threads = cfg.n_threads if self.is_cpu else 1
         self.n_fields = model.n_fields
         self.reference: ReferenceGrid | None = None

@@ -59,6 +59,9 @@ def check_device(device: str) -> None:
         return
     import warp as wp
 
+    from tissuempm.precision import init_warp
+
+    init_warp()  # quiet: no banner, and the driver warning is this error's job
     count = wp.get_cuda_device_count() if wp.is_cuda_available() else 0
     if count == 0:
         raise ValueError(f"--device {device}: Warp finds no CUDA device on this machine "
