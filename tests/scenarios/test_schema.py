@@ -114,6 +114,10 @@ def test_csg_shapes_nest():
          "is not defined"),
         ("materials.grip", {"kind": "rigid", "amplitude": [[0, "1 m"]]}, "materials.grip.amplitude.points",
          "point 0: factor '1 m' must be a number"),
+        ("materials.grip", {"kind": "rigid", "free": True, "amplitude": [[0, 1]]}, "materials.grip",
+         "a free rigid body (free = true) has no prescribed velocity to scale"),
+        ("materials.grip", {"kind": "rigid", "free": True, "velocity": [0, "1 m/s", 0]}, "materials.grip",
+         "a free rigid body starts with the velocity of its particles"),
     ],
 )
 def test_errors_name_the_key(path, value, key, text):

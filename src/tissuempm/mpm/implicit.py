@@ -159,6 +159,8 @@ class ImplicitSolver(ExplicitSolver):
             raise ValueError("contact between bodies is not available with the implicit integrator: use 'explicit'")
         if self.reference is not None:
             raise ValueError("grid = 'no_reset' is available with the explicit integrator only")
+        if self.free is not None:
+            raise ValueError("free rigid bodies (rigid materials with free = true) need the explicit integrator")
         self.implicit = implicit
         self.extra_fields = ("acc",)
         self.ik = implicit_kernels(self.t, self.config.shape)

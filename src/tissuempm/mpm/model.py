@@ -110,32 +110,43 @@ class GridBoundary:
 
 @dataclass(frozen=True, kw_only=True)
 class RigidMaterial:
-    """A rigid body moved with a prescribed velocity ("perfectly bonded" driver).
+    """A rigid body: a driver moved with a prescribed velocity or a free projectile.
 
-    Its particles translate with ``velocity``; every grid node they touch takes that
-    velocity, so material sharing those nodes sticks to the driver. The solver
-    reports the reaction force the rest of the model exerts on it
-    (:meth:`ExplicitSolver.diagnostics`).
+    Its particles translate with the body velocity; every grid node they touch takes that
+    velocity, so material sharing those nodes sticks to it (with contact, other bodies slide on
+    and separate from it). The solver reports the reaction force the rest of the model exerts
+    on it (:meth:`ExplicitSolver.diagnostics`).
 
     Attributes
     ----------
     velocity
-        Prescribed velocity [m/s] (change it per step with :class:`Control`).
+        Prescribed velocity [m/s] (change it per step with :class:`Control`); zero for a free
+        body, which starts with its particles' velocity (the body's, mass-weighted).
     density
-        Mass density [kg/m^3] (only used in the mass diagnostics).
+        Mass density [kg/m^3] (the mass diagnostics; the inertia of a free body).
+    free
+        False (default): a driver at ``velocity``. True: a free rigid projectile whose velocity
+        changes with the reaction force on it and gravity, V += dt (R / M + g), translation only
+        (:mod:`tissuempm.mpm.free_bodies`).
     """
 
     kind = "rigid"
     velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     density: float = 1000.0
+    free: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "velocity", _vec3("RigidMaterial.velocity", self.velocity))
         if not (math.isfinite(self.density) and self.density > 0):
             raise ValueError(f"RigidMaterial.density = {self.density!r}: must be > 0 kg/m^3")
+        if not isinstance(self.free, bool):
+            raise ValueError(f"RigidMaterial.free = {self.free!r}: must be true or false")
+        if self.free and any(self.velocity):
+            raise ValueError(f"RigidMaterial.velocity = {list(self.velocity)}: a free rigid body starts with the "
+                             "velocity of its particles (the body's velocity); leave the material's at 0")
 
     def to_dict(self) -> dict[str, Any]:
-        return {"kind": "rigid", "velocity": list(self.velocity), "density": self.density}
+        return {"kind": "rigid", "velocity": list(self.velocity), "density": self.density, "free": self.free}
 
 
 def _array(name: str, value: Any, shape: tuple[int, ...], dtype: Any = float) -> np.ndarray:

@@ -43,6 +43,7 @@ from tissuempm.mpm import kernels as K
 from tissuempm.mpm.config import Control, SolverConfig
 from tissuempm.mpm.contact import contact_kernel
 from tissuempm.mpm.errors import InstabilityError
+from tissuempm.mpm.free_bodies import FreeBodies
 from tissuempm.mpm.launch import Launcher
 from tissuempm.mpm.model import Model, ParticleData, RigidMaterial
 from tissuempm.mpm.reference_grid import ReferenceGrid, check_no_reset
@@ -114,6 +115,7 @@ class ExplicitSolver:
             if isinstance(m, RigidMaterial):
                 self._rigid_velocity[i] = m.velocity
         self.rigid_vel = warp_array(self._rigid_velocity, "vec3", self.t, self.device)
+        self.free = FreeBodies(self) if any(getattr(m, "free", False) for m in model.materials) else None
         # grid faces
         kinds = np.zeros(6, dtype=np.int32)
         self._bc_velocity = np.zeros((6, 3))
@@ -220,7 +222,8 @@ class ExplicitSolver:
             "material": pd.material, "fiber": pd.fiber, "fixed": pd.fixed, "field": pd.field, "work": np.zeros(n),
             "reaction": np.zeros((n, 3)), "vpic": np.zeros((n, 3)), "id": np.arange(n), "state": hist,
         }  # fmt: skip
-        rigid = np.array([self.model.is_rigid(i) for i in range(n_mat)])[pd.material]
+        rigid = np.array([self.model.is_rigid(i) and not getattr(m, "free", False)
+                          for i, m in enumerate(self.model.materials)])[pd.material]  # free bodies: their own v
         arrays["v"][rigid] = self._rigid_velocity[pd.material[rigid]]
         st = self._allocate_state(arrays)
         if self.config.sort_interval:
@@ -260,6 +263,8 @@ class ExplicitSolver:
         st.speed = wp.zeros(slots, dtype=self.t.scalar, device=self.device)
         # host views of the per-chunk arrays (read and reset every step: a view costs nothing on the CPU)
         st.host = {k: getattr(st, k).numpy() for k in ("lo", "hi", "bad", "speed")} if self.is_cpu else None
+        if self.free is not None:
+            self.free.attach(st)
         return st
 
     # ------------------------------------------------------------------------------ helpers
@@ -306,8 +311,8 @@ class ExplicitSolver:
         self._gravity = self.t.vec3(*g)
         if control is not None and control.rigid_velocity:
             for i, vel in control.rigid_velocity.items():
-                if not self.model.is_rigid(i):
-                    raise ValueError(f"Control.rigid_velocity: material {i} is not a RigidMaterial")
+                if not self.model.is_rigid(i) or getattr(self.model.materials[i], "free", False):
+                    raise ValueError(f"Control.rigid_velocity: material {i} is not a prescribed RigidMaterial")
                 self._rigid_velocity[i] = vel
             self.rigid_vel.assign(self._rigid_velocity.astype(self.t.numpy))
         if control is not None and control.boundary_velocity:
@@ -470,7 +475,7 @@ class ExplicitSolver:
         xs = self._stencil_positions(st)
         passes = self._gather_passes(flags, v_grad is self.g_vnew)
         kernels = [(self._ready(self.kern.g2p(f)), xs if f & (K.MOVE | K.GRADIENT) else st.x) for f in passes]
-        reaction = flags & K.MOVE and st.constrained and self.reactions
+        reaction = flags & K.MOVE and st.constrained and (self.reactions or self.free is not None)
 
         def task(c: int, b: int, e: int) -> Callable[[], None]:
             def run() -> None:
@@ -626,6 +631,8 @@ class ExplicitSolver:
             speeds_current = True
         self._dirty = False
         self._check(st)
+        if self.free is not None:
+            self.free.advance(st, dt)
         st.time += dt
         st.step += 1
         st.speed_step = st.step if speeds_current else None

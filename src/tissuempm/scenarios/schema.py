@@ -536,19 +536,32 @@ def _material_values(cls: type, data: dict[str, Any]) -> dict[str, Any]:
 
 
 class RigidSpec(Section):
-    """``kind = "rigid"``: a driver moving at a prescribed velocity, perfectly bonded to the tissue.
+    """``kind = "rigid"``: a driver moving at a prescribed velocity, perfectly bonded to the tissue
+    (or, with ``[[contact]]``, sliding on it), or with ``free = true`` a rigid projectile whose
+    velocity (initially ``velocity``) follows the forces on it (translation only).
 
-    ``amplitude`` scales ``velocity`` in time (:meth:`build` gives the nominal velocity).
+    ``amplitude`` scales a driver's ``velocity`` in time (:meth:`build` gives the nominal velocity).
     """
 
     velocity: Velocity = (0.0, 0.0, 0.0)
     density: Annotated[Density, Field(gt=0.0)] = 7800.0
     amplitude: AmplitudeRef | None = None
+    free: bool = False
+
+    @model_validator(mode="after")
+    def _free_body(self) -> "RigidSpec":
+        if self.free and self.amplitude is not None:
+            raise ValueError(f"amplitude = {self.amplitude!r}: a free rigid body (free = true) has no prescribed "
+                             "velocity to scale; remove amplitude or set free = false")  # fmt: skip
+        if self.free and any(self.velocity):
+            raise ValueError(f"velocity = {list(self.velocity)}: a free rigid body starts with the velocity of its "
+                             "particles (the body's velocity); leave the material's at 0")  # fmt: skip
+        return self
 
     def build(self) -> Any:
         from tissuempm.mpm import RigidMaterial
 
-        return RigidMaterial(velocity=self.velocity, density=self.density)
+        return RigidMaterial(velocity=self.velocity, density=self.density, free=self.free)
 
 
 def _rigid_spec(data: dict[str, Any]) -> RigidSpec:
