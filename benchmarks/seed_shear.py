@@ -142,7 +142,10 @@ def figures(runs: dict, stops: list[float], out: Path) -> None:
     from matplotlib.colors import ListedColormap
 
     cmap = ListedColormap(["#d9d9d9", "#fdae61", "#2c7bb6", "#d7191c"])
-    shown = [d for d in stops if all(d in runs[k].snapshots for k in ("explicit_failure", "implicit_failure"))][:4]
+    both = [d for d in stops if all(d in runs[k].snapshots for k in ("explicit_failure", "implicit_failure"))]
+    failing = [d for d in both if any((runs[k].snapshots[d].failure > 0).any() for k in ("explicit_failure", "implicit_failure"))]
+    cand = failing or both
+    shown = [cand[i] for i in sorted(set(np.linspace(0, len(cand) - 1, min(4, len(cand))).round().astype(int)))]
     fig, axes = plt.subplots(2, len(shown) + 1, figsize=(3.2 * (len(shown) + 1), 6.4), constrained_layout=True)
     for row, name in enumerate(("explicit", "implicit")):
         el = runs[f"{name}_elastic"]

@@ -98,17 +98,17 @@ def test_tensile_at_the_seed_resolution(tmp_path):
 
 @pytest.mark.slow
 def test_shear_explicit_against_implicit_with_failure(tmp_path):
-    """The four shear runs at the reduced resolution (2 mm cells; 12 min on the idle 2 cores, the implicit
-    failure run most of it): first failure within 5 % between the integrators (measured 13.65 and
-    14.05 mm, 2.9 %), at the corners under tension for both, in the matrix. The failed sets overlap with
-    a Jaccard index of 0.55-0.66 between 16 and 20 mm (the issue's goal of 0.8 is not met:
-    docs/validation.md says why); the check guards the similarity of the patterns at 0.5. To 20 mm of
-    grip travel: at 21 mm (t = 0.209 s) a sheet particle of the explicit run crosses the z = 0 symmetry
-    plane by 6e-8 m and stops the run as "left grid" (FLIP round-off through a slip face)."""
+    """The four shear runs at the reduced resolution (2 mm cells) to 28 mm of grip travel (about 3 min
+    on the idle 2 cores): first failure within 5 % between the integrators (measured 13.65 and
+    14.05 mm, 2.9 %), at the corners under tension for both, in the matrix. The failed sets overlap
+    with a Jaccard index of 0.77 / 0.59 / 0.74 at 16 / 18 / 20 mm, while the failure lines grow
+    (checked at 0.5), and 0.92 / 0.93 at 24 / 28 mm once they have formed (the issue's goal, 0.8)."""
     mod = script("seed_shear")
-    m = mod.study("2 mm", 2, "1 ms", 1.0e-4, tmp_path, list(mod.RUNS), stops_mm=(12.0, 14.0, 16.0, 18.0, 20.0))
+    m = mod.study("2 mm", 2, "1 ms", 1.0e-4, tmp_path, list(mod.RUNS))
     assert m["first_failure_difference"] < 0.05
     for name in ("explicit", "implicit"):
         onset = m[f"onset_{name}"]
         assert max(onset["corner_distance_mm"]) < 5.0 and onset["matrix_first"]
-    assert min(v["jaccard"] for k, v in m["jaccard"].items() if float(k.split()[0]) >= 16) > 0.5
+    jac = {float(k.split()[0]): v["jaccard"] for k, v in m["jaccard"].items()}
+    assert min(j for d, j in jac.items() if 16 <= d <= 20) > 0.5
+    assert min(j for d, j in jac.items() if d >= 24) >= 0.8

@@ -7,7 +7,7 @@ from mpm_testlib import Uniaxial1D, block
 from test_verification import rod, side_walls
 
 from tissuempm.materials import NeoHookean, Weiss
-from tissuempm.mpm import (Grid, GridBoundary, ImplicitConfig, ImplicitSolver, InstabilityError, Model, ParticleData,
+from tissuempm.mpm import (Control, Grid, GridBoundary, ImplicitConfig, ImplicitSolver, InstabilityError, Model, ParticleData,
                            SolverConfig)  # fmt: skip
 
 
@@ -138,6 +138,32 @@ def test_non_convergence_halves_the_step_then_stops_with_a_named_place():
         s.step(st)
     assert err.value.reason == "no convergence" and s.retries == 3
     assert err.value.position is not None
+
+
+def test_failure_is_evaluated_once_a_step_and_newton_keeps_its_rate():
+    """A Weiss + failure block pulled along its fibers by a growing body force past both limits (5 %): the
+    Newton iterations see no new failure (``without_new_failure``), the converged step evaluates it,
+    so failure appears without a halved step and every step converges in a few iterations (before
+    the staggered update the onset of failure stalled Newton: the residual jumped between
+    iterations as particles failed and recovered)."""
+    from tissuempm.materials import TwoSurfaceFailure
+
+    h = 1e-3
+    law = TwoSurfaceFailure(base=Weiss.example(), gamma_max=0.05, eps_max=0.05)
+    assert law.without_new_failure().gamma_max > 1e29 and law.without_new_failure().base == law.base
+    model = Model(grid=Grid(origin=(0, 0, 0), cell_size=h, shape=(10, 2, 2)), materials=[law],
+                  boundaries=[GridBoundary(0, "lower", "fixed")])  # fmt: skip
+    pd = block((0.0, 0.0, 0.0), (6e-3, 2e-3, 2e-3), 0.5e-3, fiber=(1.0, 0.0, 0.0))
+    s = ImplicitSolver(model, SolverConfig(shape="gimp", threads=1), ImplicitConfig(dt=1e-3))
+    st = s.initial_state(pd)
+    codes, its = [], []
+    for k in range(8):  # a body force along the fibers, raised every step
+        before = s.iterations
+        s.step(st, control=Control(gravity=(40.0 * (k + 1), 0.0, 0.0)))
+        its.append(s.iterations - before)
+        codes.append(int(np.count_nonzero(st.history.numpy()[:, 0] > 0)))
+    assert s.retries == 0 and max(its) <= 4, its  # measured 3-4 a step; 5-6 once failure sets in when it is re-evaluated every iteration
+    assert codes[0] == 0 and codes[-1] > 0  # failure appeared during the run
 
 
 @pytest.mark.parametrize("kw, match", [({"dt": 0.0}, "dt"), ({"dt": 1.0, "tolerance": 2.0}, "tolerance"),

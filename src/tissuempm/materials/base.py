@@ -334,6 +334,12 @@ class Material:
         """:attr:`symmetric_tangent`, defaulting to :attr:`has_strain_energy`."""
         return cls.has_strain_energy if cls.symmetric_tangent is None else cls.symmetric_tangent
 
+    def without_new_failure(self) -> "Material":
+        """The same law with every failure limit out of reach: failed constituents stay failed, none
+        fails anew. The implicit solver's Newton iterations use it (failure is evaluated once, at
+        the converged step). Laws without failure return themselves."""
+        return self
+
     def strain_energy(self, F: np.ndarray, a0: np.ndarray | None = None) -> float:
         """Strain energy per unit reference volume W(F) [J/m^3] (NumPy), for hyperelastic laws."""
         raise NotImplementedError(f"{type(self).__name__} has no strain energy")

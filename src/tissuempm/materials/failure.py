@@ -52,6 +52,7 @@ Example
 """
 
 
+import dataclasses
 import enum
 import math
 from dataclasses import dataclass, field
@@ -64,6 +65,9 @@ from tissuempm.materials.base import PRM_OFFSET, Material, ParameterError, State
 from tissuempm.materials.tangent import rate_tangent
 from tissuempm.materials.weiss import N_LAW, Weiss
 from tissuempm.precision import WarpTypes
+
+NEVER = 1.0e30
+"""A failure limit no strain reaches (:meth:`TwoSurfaceFailure.without_new_failure`)."""
 
 Convention = Literal["seed", "uintah"]
 CONVENTIONS: tuple[str, ...] = ("seed", "uintah")
@@ -143,6 +147,11 @@ class TwoSurfaceFailure(Material):
     gamma_max: float = parameter("1", default=0.25, gt=0.0, doc="matrix failure shear strain (eq. 7)")
     eps_max: float = parameter("1", default=0.4, gt=0.0, doc="fiber failure strain lam - 1 (eq. 8)")
     convention: Convention = "seed"
+
+    def without_new_failure(self) -> "TwoSurfaceFailure":
+        """This law with both limits at 1e30 (finite in float32): the failure code of a particle's
+        history still annuls its failed constituents, but no constituent fails anew."""
+        return dataclasses.replace(self, gamma_max=NEVER, eps_max=NEVER)
 
     def __post_init__(self) -> None:
         if not isinstance(self.base, Weiss):

@@ -24,8 +24,16 @@ One step of size dt from the particle state at t_n:
    test) but not for the weakly held nodes at the fringe of a GIMP body, where the stiffness
    alone is nearly singular: use the dynamic form (the mass term holds them) for such models.
 3. Converged when ``|R| <= tol max(|f_int|, |f_ext|, |M a'|)`` and ``|du| <= tol |u|``;
-   then x_p += sum S u_i, v_p by FLIP/PIC of the nodal velocities, a_p = sum S a_i', F, sigma and
-   the history from the last iteration.
+   then x_p += sum S u_i, v_p by FLIP/PIC of the nodal velocities, a_p = sum S a_i', and F, sigma
+   and the history from a last update at the converged u.
+
+Failure is staggered: during the Newton iterations no particle fails anew
+(:meth:`~tissuempm.materials.base.Material.without_new_failure`; failed constituents stay failed),
+and the last update at the converged u evaluates the failure surfaces, so the stress a newly
+failed particle sheds enters the next step's equilibrium (as in the explicit solver, where
+failure also acts from the step after it is detected). Re-evaluating failure at every iteration
+made the residual discontinuous: at the onset in the seed-resolution shear test Newton stalled at
+25 iterations with the step halved four times.
 
 A step that does not converge in ``max_iterations`` (or makes a particle invert) is retried with
 half the step; the next step tries twice the last successful one, up to ``dt``. Below ``dt_min``
@@ -164,7 +172,10 @@ class ImplicitSolver(ExplicitSolver):
         self.implicit = implicit
         self.extra_fields = ("acc",)
         self.ik = implicit_kernels(self.t, self.config.shape)
-        self._updates = [(i, prm, self.ik.update(type(m))) for i, m, _, prm in self.laws]
+        # Newton iterations see no new failure (a law's state switching between iterations makes the
+        # residual discontinuous); the accepted step evaluates it at the converged displacement
+        self._updates = [(i, prm, self._packed(m.without_new_failure(), m, prm), self.ik.update(type(m)))
+                         for i, m, _, prm in self.laws]  # fmt: skip
         # tangents with the major symmetry (hyperelastic laws, failure): the assembly does half the blocks
         self._symmetric = int(all(m.tangent_is_symmetric() for _, m, _, _ in self.laws))
         n, dev, t = self.n_nodes, self.device, self.t
@@ -240,17 +251,25 @@ class ImplicitSolver(ExplicitSolver):
             len(self._bc_face), self.bc_kind, self.bc_vel, self.n_v, self.n_a, self.n_free, self.n_vc])  # fmt: skip
         return {k: np.asarray(getattr(self, "n_" + k).numpy(), dtype=float) for k in ("m", "v", "a", "fb", "free", "vc", "cm", "cmv")}
 
+    def _packed(self, law: Any, original: Any, prm: wp.array) -> wp.array:
+        """Parameter array of ``law`` (``prm`` when it is ``original``)."""
+        if law is original:
+            return prm
+        return wp.array(law.pack().astype(self.t.numpy), dtype=self.t.scalar, device=self.device)
+
     def _residual_parts(self, st: State, u: np.ndarray, dt: float, stiffness: bool) -> tuple[np.ndarray, np.ndarray | None]:
-        """Particle update at nodal displacement ``u`` and the assembly: (f_int, K blocks)."""
+        """Particle update at nodal displacement ``u`` and the assembly: (f_int, K blocks). With
+        ``stiffness`` (a Newton iteration) no particle fails anew; without (the accepted step) the
+        laws' failure is evaluated."""
         s = self.t.scalar
         self.n_u.assign(u.astype(self.t.numpy))
         self._fill(st, "bad", st.n)
         common = [self.origin, s(1.0 / self.h), self.dims]
 
         def update(c: int, b: int, e: int) -> None:
-            for i, prm, kern in self._updates:
+            for i, prm, frozen, kern in self._updates:
                 self._launch(kern, e - b, [
-                    i, prm, st.x, st.size, st.F, self.n_u, st.material, st.fiber, st.history, st.history_next, *common,
+                    i, frozen if stiffness else prm, st.x, st.size, st.F, self.n_u, st.material, st.fiber, st.history, st.history_next, *common,
                     s(dt), self._F, self._L, self._sig, self._c, st.bad, b, c * SLOT], c)  # fmt: skip
 
         def assemble(c: int, b: int, e: int) -> None:
