@@ -37,9 +37,14 @@ def cpu_compiler_flags() -> str | None:
     return " ".join(re.sub(r"-mllvm[= ]-slp-recursion-max-depth=\d+", " ", flags).split())
 
 
-def kernel(fn: Callable[..., Any]) -> Any:
-    """``@wp.kernel`` in a module of its own, compiled with :func:`cpu_compiler_flags` on the CPU."""
-    return wp.kernel(fn, module="unique", module_options={"cpu_compiler_flags": cpu_compiler_flags()})
+def kernel(fn: Callable[..., Any], contract: bool = False) -> Any:
+    """``@wp.kernel`` in a module of its own, compiled with :func:`cpu_compiler_flags` on the CPU;
+    ``contract`` adds ``-ffp-contract=fast`` there (fused multiply-adds, see
+    :func:`tissuempm.mpm.kernels.transfer_kernel`)."""
+    flags = cpu_compiler_flags()
+    if contract and flags is not None:
+        flags = f"{flags} -ffp-contract=fast"
+    return wp.kernel(fn, module="unique", module_options={"cpu_compiler_flags": flags})
 
 
 Precision = Literal["float64", "float32"]

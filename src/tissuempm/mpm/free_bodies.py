@@ -29,7 +29,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import warp as wp
 
-from tissuempm.mpm.model import RigidMaterial
 from tissuempm.precision import WarpTypes, kernel
 
 if TYPE_CHECKING:
@@ -69,13 +68,13 @@ class FreeBodies:
 
     def __init__(self, solver: "ExplicitSolver"):
         self.solver = solver
-        mats = solver.model.materials
-        self.index = [i for i, m in enumerate(mats) if isinstance(m, RigidMaterial) and m.free]
-        flags = np.zeros(len(mats), dtype=np.int32)
+        n_mat = len(solver.model.materials)
+        self.index = [i for i in range(n_mat) if solver.model.is_free(i)]
+        flags = np.zeros(n_mat, dtype=np.int32)
         flags[self.index] = 1
         self.flags = wp.array(flags, dtype=wp.int32, device=solver.device)
-        self.mass = np.zeros(len(mats))
-        self._sum = wp.zeros(len(mats), dtype=solver.t.vec3, device=solver.device)
+        self.mass = np.zeros(n_mat)
+        self._sum = wp.zeros(n_mat, dtype=solver.t.vec3, device=solver.device)
         self.kern = free_body_kernels(solver.t)
 
     def attach(self, st: "State") -> None:

@@ -174,8 +174,10 @@ class ImplicitSolver(ExplicitSolver):
         self.ik = implicit_kernels(self.t, self.config.shape)
         # Newton iterations see no new failure (a law's state switching between iterations makes the
         # residual discontinuous); the accepted step evaluates it at the converged displacement
-        self._updates = [(i, prm, self._packed(m.without_new_failure(), m, prm), self.ik.update(type(m)))
-                         for i, m, _, prm in self.laws]  # fmt: skip
+        self._updates = []
+        for i, m, _, prm in self.laws:
+            frozen = m.without_new_failure()
+            self._updates.append((i, prm, prm if frozen is m else self._parameters(frozen), self.ik.update(type(m))))
         # tangents with the major symmetry (hyperelastic laws, failure): the assembly does half the blocks
         self._symmetric = int(all(m.tangent_is_symmetric() for _, m, _, _ in self.laws))
         n, dev, t = self.n_nodes, self.device, self.t
@@ -250,12 +252,6 @@ class ImplicitSolver(ExplicitSolver):
             self.n_m, self.n_mv, self.n_ma, self.n_cm, self.n_cmv, s(st.min_node_mass), self.dims,
             len(self._bc_face), self.bc_kind, self.bc_vel, self.n_v, self.n_a, self.n_free, self.n_vc])  # fmt: skip
         return {k: np.asarray(getattr(self, "n_" + k).numpy(), dtype=float) for k in ("m", "v", "a", "fb", "free", "vc", "cm", "cmv")}
-
-    def _packed(self, law: Any, original: Any, prm: wp.array) -> wp.array:
-        """Parameter array of ``law`` (``prm`` when it is ``original``)."""
-        if law is original:
-            return prm
-        return wp.array(law.pack().astype(self.t.numpy), dtype=self.t.scalar, device=self.device)
 
     def _residual_parts(self, st: State, u: np.ndarray, dt: float, stiffness: bool) -> tuple[np.ndarray, np.ndarray | None]:
         """Particle update at nodal displacement ``u`` and the assembly: (f_int, K blocks). With

@@ -24,7 +24,7 @@ import warp as wp
 
 from tissuempm.mpm.model import GHOST
 from tissuempm.mpm.shape_functions import STENCIL, axis_weights, particle_domain
-from tissuempm.precision import WarpTypes, cpu_compiler_flags, kernel
+from tissuempm.precision import WarpTypes, kernel
 
 # scatter / reduce field flags
 MASS = wp.constant(1)
@@ -73,9 +73,7 @@ def transfer_kernel(fn: Any) -> Any:
     statements, which Warp's generated code splits into single operations). The 27-node sums of
     the transfer kernels are chains of such products: G2P 8-18 % faster, P2G unchanged
     (docs/mpm.md). CUDA contracts by default."""
-    flags = cpu_compiler_flags()
-    flags = None if flags is None else f"{flags} -ffp-contract=fast"
-    return wp.kernel(fn, module="unique", module_options={"cpu_compiler_flags": flags})
+    return kernel(fn, contract=True)
 
 
 @wp.func

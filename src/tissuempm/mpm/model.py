@@ -287,6 +287,10 @@ class Model:
         """True when material ``index`` is a :class:`RigidMaterial`."""
         return isinstance(self.materials[index], RigidMaterial)
 
+    def is_free(self, index: int) -> bool:
+        """True when material ``index`` is a free rigid body (``RigidMaterial(free=True)``)."""
+        return self.is_rigid(index) and self.materials[index].free
+
     def density(self, index: int) -> float:
         """Reference density [kg/m^3] of material ``index``."""
         return float(self.materials[index].density)

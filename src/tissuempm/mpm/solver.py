@@ -104,7 +104,7 @@ class ExplicitSolver:
         for i, m in enumerate(model.materials):
             if isinstance(m, Material):
                 mk = K.material_kernels(type(m), self.t)
-                prm = wp.array(m.pack().astype(self.t.numpy), dtype=self.t.scalar, device=self.device)
+                prm = self._parameters(m)
                 self.laws.append((i, m, mk, prm))
         self.mat_rigid = wp.array(
             np.array([model.is_rigid(i) for i in range(n_mat)], dtype=np.int32), dtype=wp.int32, device=self.device
@@ -115,7 +115,7 @@ class ExplicitSolver:
             if isinstance(m, RigidMaterial):
                 self._rigid_velocity[i] = m.velocity
         self.rigid_vel = warp_array(self._rigid_velocity, "vec3", self.t, self.device)
-        self.free = FreeBodies(self) if any(getattr(m, "free", False) for m in model.materials) else None
+        self.free = FreeBodies(self) if any(model.is_free(i) for i in range(n_mat)) else None
         # grid faces
         kinds = np.zeros(6, dtype=np.int32)
         self._bc_velocity = np.zeros((6, 3))
@@ -158,6 +158,10 @@ class ExplicitSolver:
             self._ready(k)
 
     # ------------------------------------------------------------------------------ setup
+    def _parameters(self, law: Material) -> wp.array:
+        """The packed parameter array of ``law`` on the solver's device and precision."""
+        return wp.array(law.pack().astype(self.t.numpy), dtype=self.t.scalar, device=self.device)
+
     def _ready(self, kernel: Any) -> Any:
         """Compile ``kernel`` once in this thread (module loading is not thread-safe); return it.
 
@@ -222,9 +226,8 @@ class ExplicitSolver:
             "material": pd.material, "fiber": pd.fiber, "fixed": pd.fixed, "field": pd.field, "work": np.zeros(n),
             "reaction": np.zeros((n, 3)), "vpic": np.zeros((n, 3)), "id": np.arange(n), "state": hist,
         }  # fmt: skip
-        rigid = np.array([self.model.is_rigid(i) and not getattr(m, "free", False)
-                          for i, m in enumerate(self.model.materials)])[pd.material]  # free bodies: their own v
-        arrays["v"][rigid] = self._rigid_velocity[pd.material[rigid]]
+        driven = np.array([self.model.is_rigid(i) and not self.model.is_free(i) for i in range(n_mat)])[pd.material]
+        arrays["v"][driven] = self._rigid_velocity[pd.material[driven]]  # free bodies keep their particles' v
         st = self._allocate_state(arrays)
         if self.config.sort_interval:
             self._sort(st)
@@ -311,7 +314,7 @@ class ExplicitSolver:
         self._gravity = self.t.vec3(*g)
         if control is not None and control.rigid_velocity:
             for i, vel in control.rigid_velocity.items():
-                if not self.model.is_rigid(i) or getattr(self.model.materials[i], "free", False):
+                if not self.model.is_rigid(i) or self.model.is_free(i):
                     raise ValueError(f"Control.rigid_velocity: material {i} is not a prescribed RigidMaterial")
                 self._rigid_velocity[i] = vel
             self.rigid_vel.assign(self._rigid_velocity.astype(self.t.numpy))
@@ -530,7 +533,8 @@ class ExplicitSolver:
         out += [kern.g2p(f) for flags, shared in gathers for f in self._gather_passes(flags, shared)]
         if self.n_fields > 1:
             out += [contact_kernel(self.t, mode, self.n_fields) for mode in sorted({m for _, m in grids})]
-        return out + [kern.reaction, kern.rigid_speed] + [k for _, _, mk, _ in self.laws for k in (mk.stress, mk.speed)]
+        out += [kern.reaction, kern.rigid_speed] + [k for _, _, mk, _ in self.laws for k in (mk.stress, mk.speed)]
+        return out + ([self.free.kern.sum_reactions, self.free.kern.set_velocity] if self.free is not None else [])
 
     def load_kernels(self, report: Callable[[int, int], None] | None = None) -> None:
         """Load (on a cold kernel cache: compile) every kernel of :meth:`step_kernels` now, so the
