@@ -13,7 +13,7 @@ Usage::
     python benchmarks/throughput.py [--cells 24] [--ppc 2] [--steps 20] [--repeat 3]
                                     [--transfer musl usl] [--device cpu|cuda] [--json] [--quick]
                                     [--cases neo_hookean weiss_failure weiss_failure_contact]
-                                    [--precision float64 float32]
+                                    [--precision float64 float32] [--anti-locking none fbar]
 
 ``--json`` prints one JSON record per case with ``case``, ``precision``, ``threads``,
 ``shape_function``, ``transfer``, ``device``, ``particles``, ``particle_steps_per_s`` (the median
@@ -55,7 +55,8 @@ def material(case: str):
     return TwoSurfaceFailure(base=Weiss.example(), gamma_max=0.25, eps_max=0.4)
 
 
-def build_case(case, precision, threads, cells, ppc, shape="gimp", transfer="musl", device="cpu", law=None):
+def build_case(case, precision, threads, cells, ppc, shape="gimp", transfer="musl", device="cpu", law=None,
+               anti_locking=None):
     """The benchmark block of ``case`` (``cells``^3 cells, ``ppc``^3 particles per cell; the case's
     material or ``law``): (solver, state)."""
     h = 1e-3
@@ -73,13 +74,13 @@ def build_case(case, precision, threads, cells, ppc, shape="gimp", transfer="mus
     pd = ParticleData(x=X, volume=(h / ppc) ** 3, size=h / ppc, material=0, velocity=v, field=field)
     solver = ExplicitSolver(Model(grid=grid, materials=[law or material(case)], contact=contact),
                             SolverConfig(shape=shape, precision=precision, threads=threads, transfer=transfer,
-                                         device=device))  # fmt: skip
+                                         device=device, anti_locking=anti_locking))  # fmt: skip
     return solver, solver.initial_state(pd)
 
 
 def run_case(case, precision, threads, cells, ppc, steps, shape="gimp", transfer="musl", device="cpu", repeat=3,
-             law=None) -> dict:
-    solver, st = build_case(case, precision, threads, cells, ppc, shape, transfer, device, law)
+             law=None, anti_locking=None) -> dict:
+    solver, st = build_case(case, precision, threads, cells, ppc, shape, transfer, device, law, anti_locking)
     solver.step(st)  # warm-up (compilation)
     walls, cpus = [], []
     for _ in range(repeat):  # consecutive blocks of steps: the median resists other tenants' bursts
@@ -96,6 +97,7 @@ def run_case(case, precision, threads, cells, ppc, steps, shape="gimp", transfer
         "threads": threads,
         "shape_function": shape,
         "transfer": transfer,
+        "anti_locking": solver.anti_locking,
         "device": device,
         "particles": st.n,
         "steps": steps,
@@ -120,6 +122,8 @@ def main() -> None:
     ap.add_argument("--precision", nargs="+", default=["float64", "float32"], choices=["float64", "float32"],
                     help="precisions (default: both)")
     ap.add_argument("--json", action="store_true", help="one JSON record per case")
+    ap.add_argument("--anti-locking", nargs="+", default=["fbar"], choices=["none", "fbar"],
+                    help="volumetric treatments (default: fbar, the solver's default)")
     args = ap.parse_args()
     if args.quick:
         args.cells, args.steps, args.repeat = 8, 5, 1
@@ -131,14 +135,15 @@ def main() -> None:
         for precision in args.precision:
             for transfer in args.transfer:
                 for threads in sorted({1, all_threads}):
-                    rec = run_case(case, precision, threads, args.cells, args.ppc, args.steps,
-                                   transfer=transfer, device=args.device, repeat=args.repeat)  # fmt: skip
-                    rec["machine"] = mach
-                    if args.json:
-                        print(json.dumps(rec), flush=True)
-                    else:
-                        print(f"{case:14s} {precision} {transfer} threads={threads} particles={rec['particles']} "
-                              f"{rec['particle_steps_per_s'] / 1e6:6.2f} M particle-steps/s", flush=True)  # fmt: skip
+                    for al in args.anti_locking:
+                        rec = run_case(case, precision, threads, args.cells, args.ppc, args.steps, transfer=transfer,
+                                       device=args.device, repeat=args.repeat, anti_locking=al)  # fmt: skip
+                        rec["machine"] = mach
+                        if args.json:
+                            print(json.dumps(rec), flush=True)
+                        else:
+                            print(f"{case:14s} {precision} {transfer} threads={threads} {al:4s} particles={rec['particles']} "
+                                  f"{rec['particle_steps_per_s'] / 1e6:6.2f} M particle-steps/s", flush=True)  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -142,8 +142,12 @@ def test_tract_profile_widens_as_built(report, synthetic):
     assert t.cavity_mean == pytest.approx(cavity.mean(), abs=DIAMETER_TOL)
     assert t.cavity_failed_max == pytest.approx(failed.max(), abs=DIAMETER_TOL)
     assert t.cavity_failed_mean == pytest.approx(failed.mean(), abs=DIAMETER_TOL)
-    assert t.slope == pytest.approx(np.polyfit(depth, cavity, 1)[0], abs=0.02)
+    measured = np.array([st.cavity_diameter for st in stations])
+    neck = int(np.argmin(measured[depth <= THICK / 2]))  # no crater: the neck is where lattice jags put it
+    assert t.crater_depth == pytest.approx(depth[neck]) and t.crater_depth < 2 * H
+    assert t.slope == pytest.approx(np.polyfit(depth[neck:], measured[neck:], 1)[0], rel=1e-9)
     assert t.slope == pytest.approx(0.4, abs=0.05)  # D_c grows 4 mm over 10 mm
+    assert t.half_angle_deg == pytest.approx(np.degrees(np.arctan(t.slope / 2)))
     assert t.widening == "widens"
 
 
@@ -153,7 +157,7 @@ def test_intact_frame_has_no_wound(run_dir):
     assert not first.entry.hole and not first.exit.hole
     assert first.entry.diameter == 0.0 and first.entry.fiber_angle_deg is None
     assert all(st.cavity_diameter == 0.0 and st.cavity_failed_diameter == 0.0 for st in first.tract.stations)
-    assert first.tract.slope is None and first.tract.widening is None
+    assert first.tract.slope is None and first.tract.widening is None and first.tract.crater_depth is None
     assert first.failure.counts["failed"] == 0
     assert first.projectile.energy_deposited == 0.0
 
@@ -194,3 +198,111 @@ def test_plane_basis_ignores_round_off_in_a_shot_along_y():
         axis = np.array([noise[0], 1.0, noise[1]])
         e1, e2 = plane_basis(axis / np.linalg.norm(axis))
         assert np.allclose(e1, [1, 0, 0], atol=1e-12) and np.allclose(e2, [0, 0, -1], atol=1e-12)
+
+
+# --- the figures' section follows the material --------------------------------------------------------
+
+
+def cup_slab(hole_radius=0.0):
+    """A 20 x 5 x 20 mm lattice slab (spacing H, shot along +y through x = z = 0, a cell corner, so
+    the lattice layers nearest the section plane z = 0 lie at z = +-H/2) pushed into a closed cup by a
+    projectile: radial stretch ``r' = r (1 + 0.15 g)`` and bulge ``y' = y + 2 mm g``, ``g = exp(-(r/R)^2)``,
+    R = 3 mm; the particles with r < R completely failed (3). ``hole_radius`` > 0 removes those
+    within it instead: a real perforation. Returns the shot line, current positions and failure codes."""
+    from tissuempm.analysis.shotline import ShotLine
+
+    k = np.arange(-20, 20) * H + H / 2
+    x, y, z = np.meshgrid(k, np.arange(10) * H + H / 2, k, indexing="ij")
+    x0 = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+    r = np.hypot(x0[:, 0], x0[:, 2])
+    g = np.exp(-((r / 3e-3) ** 2))
+    points = x0 * np.stack([1 + 0.15 * g, np.ones_like(g), 1 + 0.15 * g], axis=1) + np.outer(2e-3 * g, [0, 1, 0])
+    codes = np.where(r < 3e-3, 3, 0)
+    keep = r >= hole_radius
+    return ShotLine.through(np.array([0.0, -5e-3, 0.0]), np.array([0.0, 1.0, 0.0])), points[keep], codes[keep]
+
+
+def column_runs(covered):
+    """Number of separate covered runs along the depth in each column (e1 position) of a section."""
+    return np.count_nonzero(np.diff(covered.astype(int), axis=1) == 1, axis=1) + covered[:, 0]
+
+
+def test_section_of_a_closed_cup_has_no_through_hole():
+    """The old figure kept the particles within h/2 of the section plane: a cup stretched radially by 15 %
+    moves the two lattice layers at z = +-H/2 out of that band, so it showed a hole through the slab.
+    The nearest-particle section shows the cup closed: every column through the slab holds one
+    unbroken run of material, failed (the cup) at the shot line."""
+    from tissuempm.analysis.raster import section
+
+    line, points, codes = cup_slab()
+    v, u = line.inplane(points)[:, 1], line.inplane(points)[:, 0]
+    band = np.abs(v) <= 0.5005 * H  # the old figure's section
+    assert not np.any(band & (np.abs(u) < 3e-3))  # ... empty over the whole depth around the shot line
+
+    raster, nearest = section(line, points, np.array([-12e-3, 2e-3]), np.array([12e-3, 15e-3]), H)
+    covered = nearest >= 0
+    u_pixels = raster.lower[0] + raster.pixel * np.arange(raster.shape[0])
+    inside = np.abs(u_pixels) < 9.5e-3  # columns through the slab (it spans |u| < 10 mm)
+    np.testing.assert_array_equal(column_runs(covered)[inside], 1)
+    assert np.all(column_runs(covered)[np.abs(u_pixels) > 12e-3] == 0)  # nothing beside the slab
+    at_shot_line = nearest[np.argmin(np.abs(u_pixels))]
+    assert np.all(codes[at_shot_line[at_shot_line >= 0]] == 3)  # the failed cup
+    deepest = raster.lower[1] + raster.pixel * np.flatnonzero(covered[np.argmin(np.abs(u_pixels))]).max()
+    assert deepest - line.axial(np.zeros(3)) == pytest.approx(points[:, 1].max(), abs=H)  # the bulge's bottom
+
+
+def test_section_shows_a_real_hole():
+    """Pixels with no particle within one spacing are empty: a perforation of radius 2 mm through the
+    cup shows as empty columns over the whole depth, and the material beside it is there."""
+    from tissuempm.analysis.raster import section
+
+    line, points, _ = cup_slab(hole_radius=2e-3)
+    raster, nearest = section(line, points, np.array([-12e-3, 2e-3]), np.array([12e-3, 15e-3]), H)
+    u_pixels = raster.lower[0] + raster.pixel * np.arange(raster.shape[0])
+    runs = column_runs(nearest >= 0)
+    hole_edge = 2e-3 * (1 + 0.15 * np.exp(-((2e-3 / 3e-3) ** 2)))  # where r = 2 mm moved to, 2.19 mm
+    assert np.all(runs[np.abs(u_pixels) < hole_edge - 1.5 * H] == 0)
+    np.testing.assert_array_equal(runs[(np.abs(u_pixels) > hole_edge + 1.5 * H) & (np.abs(u_pixels) < 9.5e-3)], 1)
+
+
+# --- the tract's slope below the entry crater ---------------------------------------------------------
+
+DEPTHS = (np.arange(16) + 0.5) * 0.625e-3  # the stations of the 10 mm slab, h = 0.625 mm
+CRATER = np.clip(1.0 - DEPTHS / 2e-3, 0.0, None) * 8e-3  # a funnel 8 mm wider at the face, gone at 2 mm
+
+
+@pytest.mark.parametrize(
+    "slope, label",
+    [(0.3, "widens"), (-0.3, "narrows"), (0.0, "straight"), (0.02, "straight")],
+)
+def test_slope_is_measured_below_the_entry_crater(slope, label):
+    """A cone of diameter 15 mm + slope * depth under an entry crater: the trend below the crater has
+    the cone's slope and the label of its sign; 0.02 changes the diameter by 0.17 mm < h over the
+    fitted 7.8 mm: straight."""
+    from tissuempm.analysis.wound import tract_trend
+
+    rng = np.random.default_rng(3)
+    cavity = 15e-3 + slope * DEPTHS + CRATER + rng.uniform(-0.05, 0.05, len(DEPTHS)) * 0.625e-3
+    if label == "widens":  # the exit is wider than the cone's start, yet the crater makes the entry the widest
+        assert cavity[0] > cavity[-1] and np.polyfit(DEPTHS, cavity, 1)[0] < 0  # the old fit: "narrows"
+    trend = tract_trend(DEPTHS, cavity, 10e-3, 0.625e-3)
+    assert trend.widening == label
+    upper = DEPTHS <= 5e-3
+    assert trend.crater_depth == DEPTHS[upper][np.argmin(cavity[upper])]  # the narrowest of the upper half
+    if label == "widens":
+        assert 1.5e-3 < trend.crater_depth < 2.2e-3  # where the crater ends (2 mm)
+    assert trend.slope == pytest.approx(slope, abs=0.02)
+    assert trend.half_angle_deg == pytest.approx(np.degrees(np.arctan(trend.slope / 2)), rel=1e-12)
+
+
+def test_slope_needs_two_open_stations_below_the_neck():
+    from tissuempm.analysis.wound import tract_trend
+
+    closed = np.zeros(len(DEPTHS))
+    assert tract_trend(DEPTHS, closed, 10e-3, 0.625e-3) is None
+    one = closed.copy()
+    one[-1] = 10e-3
+    assert tract_trend(DEPTHS, one, 10e-3, 0.625e-3) is None
+    bulge = np.where(DEPTHS > 6e-3, 10e-3 + DEPTHS, 0.0)  # no cavity in the upper half: fit from the first open one
+    trend = tract_trend(DEPTHS, bulge, 10e-3, 0.625e-3)
+    assert trend.crater_depth == DEPTHS[DEPTHS > 6e-3][0] and trend.slope == pytest.approx(1.0)

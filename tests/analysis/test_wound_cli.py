@@ -34,10 +34,22 @@ def test_table_and_figures(run_dir):
     res = cli.invoke(app, ["wound", str(run_dir)])
     assert res.exit_code == 0, res.output
     assert "perforated" in res.stdout and "exit wound" in res.stdout
+    assert "widens: +0.387 mm/mm (half-angle +11.0" in _text(res)  # below the entry crater: sign, unit, angle
     written = sorted(p.name for p in (run_dir / "wound").iterdir())
     assert written == ["entry_face.png", "exit_face.png", "sections.png", "tract_profile.png", "wound.json",
                        "wound_profile.png"]
     assert all((run_dir / "wound" / name).stat().st_size > 10_000 for name in written if name.endswith(".png"))
+
+
+def test_frame_writes_beside_the_default_output(run_dir):
+    """--frame N writes RUN_DIR/wound_frame_N (N: the resolved index), leaving RUN_DIR/wound alone."""
+    res = cli.invoke(app, ["wound", str(run_dir), "--no-figures"])
+    assert res.exit_code == 0, res.output
+    last = (run_dir / "wound" / "wound.json").read_text()
+    res = cli.invoke(app, ["wound", str(run_dir), "--frame", "-2", "--no-figures"])
+    assert res.exit_code == 0, res.output
+    assert json.loads((run_dir / "wound_frame_1" / "wound.json").read_text())["frame"] == 1
+    assert (run_dir / "wound" / "wound.json").read_text() == last and json.loads(last)["frame"] == 2
 
 
 @pytest.mark.parametrize(

@@ -124,14 +124,19 @@ class Synthetic:
         }
         return points, fields
 
-    def write(self, directory: Path) -> Path:
+    def write(self, directory: Path, edit=None, **scenario_keys) -> Path:
+        """Write the run into ``directory``; ``edit(k, points, fields) -> (points, fields)`` changes
+        frame k before it is written (removes particles, drops fields), ``scenario_keys`` are added to
+        scenario.json (``grid``)."""
         series = VTUSeries(directory)
         for k, t in enumerate(TIMES):
             points, fields = self.frame(k)
+            if edit is not None:
+                points, fields = edit(k, points, fields)
             series.write(t, points, fields)
         scenario = {"name": "synthetic", "body": [{"name": "fragment", "material": "lead"},
                                                   {"name": "slab", "material": "myocardium"},
-                                                  {"name": "plate", "material": "steel"}]}
+                                                  {"name": "plate", "material": "steel"}], **scenario_keys}
         (directory / "scenario.json").write_text(json.dumps(scenario))
         return directory
 

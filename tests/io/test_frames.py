@@ -37,8 +37,8 @@ def test_default_selection_keeps_what_users_colour_by_and_drops_the_rest():
     history = state_names(mats)
     fields = particle_fields(snapshot(), mats) | {"body": np.zeros(5, int)}
     kept = select_fields(fields, DEFAULT_FRAME_FIELDS, history)
-    assert {"von_mises", "failure", "fiber_stretch", "velocity", "body"} | history <= set(kept)
-    assert not {"F", "L", "stress", "id"} & set(kept)
+    assert {"von_mises", "failure", "fiber_stretch", "velocity", "body", "id"} | history <= set(kept)
+    assert not {"F", "L", "stress"} & set(kept)  # id stays: it follows particles once others are removed
     assert set(select_fields(fields, ["pressure"], history)) == {"pressure"}
 
 

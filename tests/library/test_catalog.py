@@ -27,7 +27,9 @@ def test_brewick_has_39_components_and_seed000_sets(isolated_library):
     assert sum(per_table[t] for t in BREWICK_TABLES) == 39
     # Ionescu et al. 2006: slab myocardium, single-particle and shear-test variants, MCL, lead projectile
     assert per_table["Ionescu2006"] == 5
-    assert len(library.names()) == 39 + 5
+    # ballistic gelatin cards (gelatin.toml): the Zochowski 2019 LS-DYNA card
+    assert per_table["gelatin"] == 1
+    assert len(library.names()) == 39 + 5 + 1
     assert len(set(library.names())) == len(library.names())
 
 

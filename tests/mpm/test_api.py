@@ -83,7 +83,7 @@ def test_particles_stay_on_the_grid_side_of_a_slip_wall(integrator):
     pd = block((0.02, 0.02, -0.0025), (0.06, 0.06, 0.0275), 0.005, velocity=(0.0, 0.0, -1.0))
     assert pd.x[:, 2].min() == 0.0  # the lowest layer lies on the face
     for walls in (True, False):
-        cfg = SolverConfig(threads=1, shape="gimp")
+        cfg = SolverConfig(threads=1, shape="gimp", outflow="stop")
         s = ExplicitSolver(model, cfg) if integrator == "explicit" else ImplicitSolver(model, cfg, ImplicitConfig(dt=2e-4))
         if not walls:
             s.wall_lo = s.t.vec3(-np.inf, -np.inf, -np.inf)
@@ -237,7 +237,7 @@ def test_chunk_buffers_are_clean_between_steps():
 
 def test_particle_leaving_grid_raises():
     grid = Grid(origin=(0, 0, 0), cell_size=0.01, shape=(4, 4, 4))
-    s = ExplicitSolver(Model(grid=grid, materials=[SOFT]), SolverConfig(threads=1))
+    s = ExplicitSolver(Model(grid=grid, materials=[SOFT]), SolverConfig(threads=1, outflow="stop"))
     st = s.initial_state(block((0.0, 0.01, 0.01), (0.01, 0.02, 0.02), 0.005, velocity=(-5.0, 0, 0)))
     with pytest.raises(InstabilityError) as err:
         s.run(st, 1.0)

@@ -46,9 +46,12 @@ def test_free_fall_follows_gravity_exactly():
 def test_contact_exchanges_momentum_with_the_tissue():
     """Projectile onto a free block: the total momentum (body M V plus the tissue particles') is
     constant to round-off while the contact slows the body down, and the kinetic energy does not
-    grow (perfectly plastic normal impact, friction dissipates)."""
+    grow (perfectly plastic normal impact, friction dissipates). No nodal mass threshold: the grid
+    pass drops the force at nodes below ``min_node_mass_fraction`` (default 1e-9 of the smallest
+    particle mass), which with the gap contact criterion (the tissue pressed harder at its surface) cost
+    6e-10 of the momentum here, 5e-11 with the node criterion, 4e-15 without the threshold."""
     model, pd = impact(RigidMaterial(density=11340.0, free=True))
-    s = ExplicitSolver(model, SolverConfig(threads=1))
+    s = ExplicitSolver(model, SolverConfig(threads=1, min_node_mass_fraction=0.0))
     st = s.initial_state(pd)
     p0 = momentum(st)
     e0 = 0.5 * float((st.mass.numpy() * (st.v.numpy() ** 2).sum(axis=1)).sum())

@@ -75,7 +75,9 @@ def test_column_settles_to_the_quasi_static_solution(tmp_path, shape, tol):
     tip_error = abs(u[top].mean() - exact[top][0]) / abs(exact[top][0])
     print(f"{shape}: tip {u[top].mean():.6f} m, exact {exact[top][0]:.6f} m, error {100 * tip_error:.3f} %")
     assert tip_error < tol
-    assert np.ptp(u[top]) < 1e-12  # the 2 x 2 particles of a layer move together (1-D)
+    # the 2 x 2 particles of a layer move together (1-D), to round-off of 1e-10 of the 1 m tip
+    # displacement (the F-bar pass's cell sums and cube roots: 3.2e-11 measured; 1e-13 without it)
+    assert np.ptp(u[top]) < 1e-10 * abs(exact[top][0])
     assert np.max(np.abs(u - exact)) < tol * abs(exact[top][0])  # the whole profile
     # quasi-static end: kinetic energy negligible against the stored energy, which equals the
     # internal work (elastic law) = A int_0^L int_1^lambda sigma = (rho g)^2 L^3 A / (6E) = 13333 J

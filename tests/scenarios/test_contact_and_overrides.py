@@ -26,7 +26,9 @@ def two_bodies(**contact):
 def test_contact_pair_gives_each_body_its_own_field():
     prob = build(Scenario.from_dict(two_bodies(law="friction", mu=0.2)))
     law = prob.model.contact.laws[(0, 1)]
-    assert (law.kind, law.mu) == ("friction", 0.2)
+    assert (law.kind, law.mu, law.separation) == ("friction", 0.2, "gap")
+    node = build(Scenario.from_dict(two_bodies(law="frictionless", separation="node")))
+    assert node.model.contact.laws[(0, 1)].separation == "node"
     assert np.array_equal(prob.particles.field, prob.body)
     bonded = build(Scenario.from_dict(two_bodies()))
     assert bonded.model.contact is None and not bonded.particles.field.any()
@@ -38,6 +40,7 @@ def test_contact_pair_gives_each_body_its_own_field():
         ({"law": "frictionless", "mu": 0.3}, "mu = 0.3 is only valid with law = 'friction'"),
         ({"law": "glue"}, "contact[0].law"),
         ({"law": "friction", "mu": -1}, "contact[0].mu"),
+        ({"law": "friction", "separation": "early"}, "contact[0].separation"),
     ],
 )
 def test_bad_contact_is_named(contact, text):

@@ -108,6 +108,7 @@ ESCAPE = BLOCK.replace('velocity = ["1 m/s", 0, 0]', 'velocity = ["50 m/s", 0, 0
 )
 ESCAPE = ESCAPE[: ESCAPE.index("[[body]]\nname = \"plate\"")] + ESCAPE[ESCAPE.index("[[boundary]]"):]
 ESCAPE = ESCAPE.replace("[materials.plate]\nkind = \"rigid\"\nvelocity = [0, 0, 0]\n", "")
+ESCAPE = ESCAPE.replace("[run]\n", "[run]\noutflow = \"stop\"\n")  # the default removes leaving particles
 
 
 def test_unstable_run_names_particle_and_keeps_checkpoint(tmp_path):

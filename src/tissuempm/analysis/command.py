@@ -10,7 +10,7 @@ from rich.console import Console
 from rich.table import Table
 
 from tissuempm.analysis.errors import AnalysisError
-from tissuempm.analysis.report import Opening, WoundReport
+from tissuempm.analysis.report import Opening, Removed, WoundReport
 from tissuempm.analysis.wound import analyse_wound
 from tissuempm.io import write_json
 
@@ -34,6 +34,18 @@ def _opening_row(table: Table, wound: Opening) -> None:
     )
 
 
+REASON_SOURCES = {"summary": "summary.json", "grid": "last-seen motion vs the grid",
+                  "bodies": "the body (tissue eroded, others left the grid)"}
+"""How :attr:`Removed.reasons_from` reads in the table (:mod:`tissuempm.analysis.removed`)."""
+
+
+def _removed(removed: Removed) -> str:
+    """``name n (k left the grid, k eroded)`` of each body with particles removed, and where the reasons came from."""
+    parts = [f"{name} {c['total']} ({c['outflow']} left the grid, {c['eroded']} eroded)"
+             for name, c in removed.bodies.items() if c["total"] > 0]
+    return f"{'; '.join(parts)}; reasons from: {REASON_SOURCES[removed.reasons_from]}"
+
+
 def _table(report: WoundReport, out: Path | None) -> Table:
     p, f, t = report.projectile, report.failure, report.tract
     table = Table(title=f"wound of {report.run_dir}: frame {report.frame} of {report.frame_count - 1}, "
@@ -48,23 +60,35 @@ def _table(report: WoundReport, out: Path | None) -> Table:
     table.add_row("energy deposited", f"{p.energy_deposited:.4g} J ({100 * p.energy_deposited_fraction:.1f} %)")
     table.add_row("tissue failed", ", ".join(f"{k} {100 * v:.2f} %" for k, v in f.fractions.items())
                   + f"; of all particles {100 * f.failed_fraction_all:.2f} %")
+    if report.removed.reasons_from is not None:
+        table.add_row("particles removed", _removed(report.removed))
     _opening_row(table, report.entry)
     _opening_row(table, report.exit)
     table.add_row("cavity diameter max / mean", f"{_mm(t.cavity_max)} / {_mm(t.cavity_mean)}")
     table.add_row("cavity + failed max / mean", f"{_mm(t.cavity_failed_max)} / {_mm(t.cavity_failed_mean)}")
-    slope = "-" if t.slope is None else f"{t.slope:+.3f} ({t.widening})"
-    table.add_row("tract diameter slope", slope)
+    slope = "-" if t.slope is None else (f"{t.widening}: {t.slope:+.3f} mm/mm (half-angle {t.half_angle_deg:+.1f} deg) "
+                                         f"from {_mm(t.crater_depth)} to the exit")
+    table.add_row("tract slope below the entry crater", slope)
     if out is not None:
         table.add_row("written to", str(out))
     return table
 
 
+def default_out(run_dir: Path, frame: int | None) -> Path:
+    """``RUN_DIR/wound``, or ``RUN_DIR/wound_frame_N`` for a frame asked for by index ``N`` (>= 0), so
+    that analysing another frame never replaces the last frame's report and figures."""
+    return run_dir / ("wound" if frame is None else f"wound_frame_{frame}")
+
+
 def wound(
     run_dir: Annotated[Path, typer.Argument(help="Run folder written by `tissuempm run --out`.")],
-    frame: Annotated[int, typer.Option("--frame", help="Frame to analyse; negative counts from the end.")] = -1,
+    frame: Annotated[Optional[int], typer.Option("--frame", help="Frame to analyse; negative counts from the end "
+                                                 "(default: the last). Output then defaults to "
+                                                 "RUN_DIR/wound_frame_N (N: the frame's index).")] = None,
     json_output: Annotated[bool, typer.Option("--json", help="Print the report as JSON on stdout.")] = False,
     out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Folder for wound.json and figures "
-                                                "(default RUN_DIR/wound).")] = None,
+                                                "(default RUN_DIR/wound, or RUN_DIR/wound_frame_N "
+                                                "with --frame).")] = None,
     projectile: Annotated[Optional[str], typer.Option("--projectile", help="Projectile body name "
                                                       "(default: largest initial kinetic energy).")] = None,
     tissue: Annotated[Optional[list[str]], typer.Option("--tissue", help="Tissue body name (repeat for several; "
@@ -73,11 +97,11 @@ def wound(
 ) -> None:
     """Measure the wound of a penetration run: perforation, entry/exit wounds, tract profile (docs/wound.md)."""
     try:
-        report = analyse_wound(run_dir, frame, projectile, tissue or None)
+        report = analyse_wound(run_dir, -1 if frame is None else frame, projectile, tissue or None)
     except AnalysisError as e:
         err_console.print(f"[red]error:[/red] {e}", highlight=False)
         raise typer.Exit(2) from None
-    out_dir = out if out is not None else run_dir / "wound"
+    out_dir = out if out is not None else default_out(run_dir, None if frame is None else report.frame)
     data = report.to_dict()
     write_json(out_dir / "wound.json", data)
     if not no_figures:

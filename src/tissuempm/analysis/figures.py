@@ -1,8 +1,9 @@
 """Wound figures (PNG, matplotlib Agg; lengths in mm), after seed 000 Figs. 8-10.
 
-* ``sections.png``: up to 6 frames evenly spaced from 0 to the analysed one, each a thin section
-  (particles within h / 2 of the plane through the shot line spanned by the axis and ``e1``),
-  tissue coloured by failure state, the projectile grey (Fig. 8);
+* ``sections.png``: up to 6 frames evenly spaced from 0 to the analysed one, each the section of the
+  plane through the shot line spanned by the axis and ``e1``: every pixel shows the particle nearest
+  to it within one spacing (:func:`tissuempm.analysis.raster.section`), else nothing; tissue coloured
+  by failure state, the projectile grey (Fig. 8);
 * ``wound_profile.png``: that section in the analysed frame with the measured cavity and cavity plus
   failed layer diameters of every tract station drawn about the shot line (Fig. 9);
 * ``entry_face.png``, ``exit_face.png``: the face layer projected on the plane normal to the shot line,
@@ -17,9 +18,11 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.colors import to_rgba_array  # noqa: E402
 from matplotlib.patches import Ellipse, Patch  # noqa: E402
 
 from tissuempm.analysis.frames import Frame  # noqa: E402
+from tissuempm.analysis.raster import section  # noqa: E402
 from tissuempm.analysis.report import FAILURE_LABELS, Opening, WoundReport  # noqa: E402
 from tissuempm.analysis.wound import Setup, analyse_wound, face_layer, prepare  # noqa: E402
 from tissuempm.io import atomic_path  # noqa: E402
@@ -30,21 +33,39 @@ PROJECTILE_COLOUR = "#7f7f7f"
 OTHER_COLOUR = "#d9d9d9"
 MM = 1e3
 MAX_SECTIONS = 6
+PALETTE = to_rgba_array([*FAILURE_COLOURS, OTHER_COLOUR, PROJECTILE_COLOUR])
+"""RGBA rows: the failure codes 0-3, then other bodies, then the projectile."""
 
 
-def _colours(setup: Setup, frame: Frame, mask: np.ndarray) -> np.ndarray:
-    """Colour of each particle in ``mask``: failure state for tissue, grey for the projectile and others."""
+def _colours(setup: Setup, frame: Frame, mask: np.ndarray | slice = slice(None)) -> np.ndarray:
+    """RGBA (k, 4) of each particle in ``mask`` (default all): failure state for tissue, grey for the
+    projectile and others."""
     body = frame.fields["body"][mask]
     codes = np.clip(frame.fields["failure"][mask], 0, 3)
-    colours = np.where(np.isin(body, setup.roles.tissue), np.array(FAILURE_COLOURS)[codes], OTHER_COLOUR)
-    return np.where(body == setup.roles.projectile, PROJECTILE_COLOUR, colours)
+    row = np.where(np.isin(body, setup.roles.tissue), codes, len(FAILURE_COLOURS))
+    return PALETTE[np.where(body == setup.roles.projectile, len(FAILURE_COLOURS) + 1, row)]
 
 
-def _legend(ax: plt.Axes, projectile: bool = True) -> None:
+def _handles(projectile: bool = True) -> list[Patch]:
+    """Legend entries of the failure colours (and the projectile's)."""
     handles = [Patch(color=c, label=label) for c, label in zip(FAILURE_COLOURS, FAILURE_LABELS)]
     if projectile:
         handles.append(Patch(color=PROJECTILE_COLOUR, label="projectile"))
-    ax.legend(handles=handles, loc="upper right", fontsize=7, framealpha=0.8)
+    return handles
+
+
+def _legend(ax: plt.Axes, projectile: bool = True) -> None:
+    ax.legend(handles=_handles(projectile), loc="upper right", fontsize=7, framealpha=0.8)
+
+
+def _section_figure(setup: Setup, rows: int, columns: int, width: float) -> tuple[plt.Figure, np.ndarray]:
+    """A figure of ``rows x columns`` section panels ``width`` inches wide and as tall as the sections,
+    with room for a legend below them (constrained layout)."""
+    lo, hi = _section_box(setup)
+    height = 0.8 * width * (hi[1] - lo[1]) / (hi[0] - lo[0]) + 0.9
+    fig, axes = plt.subplots(rows, columns, figsize=(width * columns, height * rows + 0.5), squeeze=False,
+                             layout="constrained")
+    return fig, axes
 
 
 def _draw(ax: plt.Axes, xy: np.ndarray, colours: np.ndarray, spacing: float) -> None:
@@ -56,33 +77,30 @@ def _draw(ax: plt.Axes, xy: np.ndarray, colours: np.ndarray, spacing: float) -> 
     ax.scatter(xy[:, 0], xy[:, 1], c=colours, s=(spacing * MM * per_unit) ** 2, marker="s", linewidths=0)
 
 
-SECTION_HALF_WIDTH = 0.5005
-"""Half width of the section band, in spacings: h / 2 plus a margin for float32 positions, so that a
-lattice with layers at +-h / 2 from the shot line shows both of them in every frame, not one by chance."""
-
-
-def _section(setup: Setup, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
-    """(e1 coordinate, depth from the entry face) in mm of the particles within h / 2 of the section
-    plane, and their mask."""
-    uv = setup.line.inplane(frame.points)
-    mask = np.abs(uv[:, 1]) <= SECTION_HALF_WIDTH * setup.faces.spacing
-    depth = setup.line.axial(frame.points[mask]) - setup.faces.entry
-    return np.stack([uv[mask, 0], depth], axis=1) * MM, mask
-
-
-def _section_limits(setup: Setup, ax: plt.Axes) -> None:
-    """e1 over the raster window, depth from the projectile's start to as far behind the exit face."""
+def _section_box(setup: Setup) -> tuple[np.ndarray, np.ndarray]:
+    """Corners ``(e1, axial s)`` of the section drawn: e1 over the raster window, depth from the
+    projectile's start to as far behind the exit face."""
     lead = setup.faces.entry + setup.search_radius  # from the projectile's rear at the start to the entry face
-    ax.set_xlim(setup.window[0][0] * MM, setup.window[1][0] * MM)
-    ax.set_ylim((setup.faces.thickness + lead) * MM, -lead * MM)  # depth downwards, like the shot
-    ax.set_xlabel("e1 [mm]")
-    ax.set_ylabel("depth from entry face [mm]")
+    lo = np.array([setup.window[0][0], setup.faces.entry - lead])
+    hi = np.array([setup.window[1][0], setup.faces.exit + lead])
+    return lo, hi
 
 
 def _section_panel(setup: Setup, frame: Frame, ax: plt.Axes) -> None:
-    xy, mask = _section(setup, frame)
-    _section_limits(setup, ax)
-    _draw(ax, xy, _colours(setup, frame, mask), setup.faces.spacing)
+    """The nearest-particle section of ``frame`` (module docstring), depth downwards like the shot."""
+    lo, hi = _section_box(setup)
+    raster, nearest = section(setup.line, frame.points, lo, hi, setup.faces.spacing)
+    image = np.zeros((*raster.shape, 4))
+    hit = nearest >= 0
+    image[hit] = _colours(setup, frame)[nearest[hit]]
+    u0, u1, s0, s1 = raster.extent
+    entry = setup.faces.entry
+    ax.imshow(image.transpose(1, 0, 2), origin="lower", interpolation="nearest",
+              extent=(u0 * MM, u1 * MM, (s0 - entry) * MM, (s1 - entry) * MM))
+    ax.set_xlim(lo[0] * MM, hi[0] * MM)
+    ax.set_ylim((hi[1] - entry) * MM, (lo[1] - entry) * MM)
+    ax.set_xlabel("e1 [mm]")
+    ax.set_ylabel("depth from entry face [mm]")
     ax.set_title(f"t = {frame.time * 1e6:.1f} us", fontsize=9)
 
 
@@ -92,20 +110,20 @@ def sections_figure(setup: Setup) -> plt.Figure:
     indices = np.unique(np.round(np.linspace(0, setup.frame.index, count)).astype(int))
     columns = min(3, len(indices))
     rows = -(-len(indices) // columns)
-    fig, axes = plt.subplots(rows, columns, figsize=(4.5 * columns, 4.0 * rows), squeeze=False)
+    fig, axes = _section_figure(setup, rows, columns, 4.5)
     for ax in axes.flat[len(indices):]:
         ax.set_visible(False)
     for ax, index in zip(axes.flat, indices):
-        frame = setup.frame if index == setup.frame.index else setup.run.load(int(index))
+        frame = setup.frame if index == setup.frame.index else setup.run.load(int(index), setup.first)
         _section_panel(setup, frame, ax)
-    _legend(axes.flat[len(indices) - 1])
-    fig.tight_layout()
+    fig.legend(handles=_handles(), loc="outside lower center", ncol=5, fontsize=8)
     return fig
 
 
 def wound_profile_figure(setup: Setup, report: WoundReport) -> plt.Figure:
     """The section of the analysed frame with the measured diameters (Fig. 9)."""
-    fig, ax = plt.subplots(figsize=(7, 5))
+    fig, axes = _section_figure(setup, 1, 1, 7.0)
+    ax = axes[0, 0]
     _section_panel(setup, setup.frame, ax)
     depth = np.array([st.depth for st in report.tract.stations]) * MM
     for key, style, label in (("cavity_diameter", "k-", "cavity"), ("cavity_failed_diameter", "m--", "cavity + failed")):
@@ -113,15 +131,13 @@ def wound_profile_figure(setup: Setup, report: WoundReport) -> plt.Figure:
         ax.plot(half, depth, style, lw=1.2, label=label)
         ax.plot(-half, depth, style, lw=1.2)
     handles, _ = ax.get_legend_handles_labels()
-    _legend(ax)
-    ax.add_artist(ax.get_legend())
-    ax.legend(handles=handles, loc="lower right", fontsize=7)
+    fig.legend(handles=_handles() + handles, loc="outside lower center", ncol=4, fontsize=8)
     return fig
 
 
 def face_figure(setup: Setup, wound: Opening) -> plt.Figure:
     """The entry or exit face layer with the fitted ellipse and the fiber direction (Fig. 10)."""
-    layer = face_layer(setup, wound.face)
+    layer = setup.frame.select(face_layer(setup, wound.face))  # the layer's particles still in the frame
     uv = setup.line.inplane(setup.frame.points[layer]) * MM
     centre = np.array(wound.offset or (0.0, 0.0)) * MM
     half = max(wound.major * MM, 4 * setup.search_radius * MM)
@@ -147,16 +163,25 @@ def face_figure(setup: Setup, wound: Opening) -> plt.Figure:
 
 
 def tract_figure(report: WoundReport) -> plt.Figure:
-    """Cavity and cavity plus failed layer diameters against depth."""
-    depth = np.array([st.depth for st in report.tract.stations]) * MM
+    """Cavity and cavity plus failed layer diameters against depth, with the fit below the entry crater."""
+    t = report.tract
+    depth = np.array([st.depth for st in t.stations]) * MM
+    cavity = np.array([st.cavity_diameter for st in t.stations]) * MM
     fig, ax = plt.subplots(figsize=(6, 4))
-    ax.plot(depth, [st.cavity_diameter * MM for st in report.tract.stations], "ko-", label="cavity (complete failure)")
-    ax.plot(depth, [st.cavity_failed_diameter * MM for st in report.tract.stations], "ms--", label="cavity + failed layer")
+    ax.plot(depth, cavity, "ko-", label="cavity (complete failure)")
+    ax.plot(depth, [st.cavity_failed_diameter * MM for st in t.stations], "ms--", label="cavity + failed layer")
     for x in (0.0, report.thickness * MM):
         ax.axvline(x, color="0.6", lw=0.8)
+    trend = "no cavity"
+    if t.slope is not None:
+        fitted = (depth >= t.crater_depth * MM) & (cavity > 0)
+        intercept = np.mean(cavity[fitted] - t.slope * depth[fitted])  # the least-squares line's
+        ax.plot(depth[fitted], intercept + t.slope * depth[fitted], "c-", lw=2, alpha=0.6,
+                label=f"fit below the entry crater (from {t.crater_depth * MM:.2f} mm)")
+        trend = f"{t.widening}, {t.slope:+.3f} mm/mm (half-angle {t.half_angle_deg:+.1f} deg)\nbelow the entry crater"
     ax.set_xlabel("depth from entry face [mm]")
     ax.set_ylabel("equivalent diameter [mm]")
-    ax.set_title(f"tract at t = {report.time * 1e6:.1f} us: {report.tract.widening or 'no cavity'}", fontsize=9)
+    ax.set_title(f"tract at t = {report.time * 1e6:.1f} us: {trend}", fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()
     return fig

@@ -1,10 +1,18 @@
 """Read a run directory written by ``tissuempm run``: its frames, their times and the body names.
 
 A run directory holds ``particles.pvd`` (the ParaView index: ``<DataSet timestep=.. file=..>``),
-``frames/*.vtu`` (one vertex per particle, the particles in the same order in every frame) and
-``scenario.json`` (the validated scenario, whose ``body`` list names the ``body`` index field).
+``frames/*.vtu`` (one vertex per particle) and ``scenario.json`` (the validated scenario, whose
+``body`` list names the ``body`` index field, and ``grid`` its bounds), and after the run
+``summary.json`` (``removed``: what the run took out, by reason).
+
+Particles may be removed during a run (outflow through the grid's faces, erosion of failed
+particles: :mod:`tissuempm.mpm.removal`), so a later frame may hold fewer particles than frame 0.
+Frames carry the point field ``id`` (the particle's index at seeding); :func:`match_rows` gives each
+particle of a frame its row in frame 0 by that id. Older frames without ``id`` hold every particle in
+the same order, and match row by row.
 """
 
+import dataclasses
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,6 +25,9 @@ from tissuempm.io import read_pvd
 
 PVD = "particles.pvd"
 SCENARIO = "scenario.json"
+SUMMARY = "summary.json"
+ID = "id"
+"""Point field of the particle's index at seeding (:data:`tissuempm.io.frames.DEFAULT_FRAME_FIELDS`)."""
 REQUIRED_FIELDS = ("body", "failure", "velocity", "mass", "x0", "size")
 """Point data the analysis needs in every frame."""
 
@@ -35,12 +46,19 @@ class Frame:
         Current particle positions, (n, 3) [m].
     fields
         Point data by name (``velocity``, ``failure``, ``x0``, ...), each with n rows.
+    rows
+        Row in frame 0 of each particle, (n,) (:func:`match_rows`; ``0 .. n-1`` for frame 0 itself).
     """
 
     index: int
     time: float
     points: np.ndarray
     fields: dict[str, np.ndarray]
+    rows: np.ndarray
+
+    def select(self, mask: np.ndarray) -> np.ndarray:
+        """The particles of this frame (boolean, n) that ``mask`` (boolean over frame 0's rows) selects."""
+        return mask[self.rows]
 
     def field(self, name: str) -> np.ndarray:
         """The point field ``name`` (floating-point fields as float64)."""
@@ -101,14 +119,15 @@ class Run:
             )
         return frame % n
 
-    def load(self, frame: int) -> Frame:
-        """Read frame ``frame`` (negative counts from the end) with its point data.
+    def load(self, frame: int, first: Frame | None = None) -> Frame:
+        """Read frame ``frame`` (negative counts from the end) with its point data, its particles
+        matched to the rows of ``first`` (frame 0, :func:`match_rows`; without it, row by row).
 
         Raises
         ------
         AnalysisError
-            When the index is out of range, the VTU file is missing or unreadable, or it lacks
-            one of :data:`REQUIRED_FIELDS`.
+            When the index is out of range, the VTU file is missing or unreadable, it lacks
+            one of :data:`REQUIRED_FIELDS`, or its particles do not match frame 0's.
         """
         index = self.resolve(frame)
         time, rel = self.frames[index]
@@ -121,7 +140,64 @@ class Run:
         if missing:
             raise AnalysisError(f"frame {index} ({path}) lacks the point field(s) {', '.join(missing)}")
         fields = {k: np.asarray(v) for k, v in mesh.point_data.items()}
-        return Frame(index, time, np.asarray(mesh.points, dtype=np.float64), fields)
+        points = np.asarray(mesh.points, dtype=np.float64)
+        loaded = Frame(index, time, points, fields, np.arange(len(points)))
+        return loaded if first is None else dataclasses.replace(loaded, rows=match_rows(first, loaded))
+
+    def grid_bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """``grid.lower``, ``grid.upper`` [m] of ``scenario.json``, or None where it has none."""
+        try:
+            grid = json.loads((self.path / SCENARIO).read_text())["grid"]
+            return np.asarray(grid["lower"], dtype=np.float64), np.asarray(grid["upper"], dtype=np.float64)
+        except (OSError, ValueError, KeyError, TypeError):
+            return None
+
+    def removed_summary(self) -> dict[str, int] | None:
+        """Particles the whole run removed, from ``summary.json``: ``{"outflow": n, "eroded": n,
+        "rigid": n}`` (deformable particles by reason, rigid-body ones), or None where the summary or
+        its ``removed`` entry is missing (an older or unfinished run)."""
+        try:
+            summary = json.loads((self.path / SUMMARY).read_text())
+            counts = {str(reason): int(entry["count"]) for reason, entry in summary["removed"].items()}
+            return {**counts, "rigid": int(summary.get("removed_rigid", 0))}
+        except (OSError, ValueError, KeyError, TypeError, AttributeError):
+            return None
+
+
+def match_rows(first: Frame, frame: Frame) -> np.ndarray:
+    """Row in ``first`` (frame 0) of each particle of ``frame``, matched by the point field ``id``.
+
+    Frames without ``id`` (older runs, or ``[run] fields`` without it) match row by row and must hold
+    frame 0's count.
+
+    Raises
+    ------
+    AnalysisError
+        When an id of ``frame`` is not one of frame 0's or repeats (ids must be a subset of frame
+        0's: the particles seeded), frame 0 repeats an id, or a frame without ids has another count.
+    """
+    n0, n = len(first.points), len(frame.points)
+    if ID not in first.fields or ID not in frame.fields:
+        if n != n0:
+            raise AnalysisError(f"frame {frame.index} has {n} particles, frame 0 has {n0}, and they lack the "
+                                f"point field {ID!r} to match them by")
+        return np.arange(n)
+    ids0, ids = first.fields[ID].astype(np.int64), frame.fields[ID].astype(np.int64)
+    order = np.argsort(ids0, kind="stable")
+    sorted0 = ids0[order]
+    if np.any(sorted0[1:] == sorted0[:-1]):
+        raise AnalysisError(f"frame 0 repeats particle ids (e.g. {int(sorted0[1:][sorted0[1:] == sorted0[:-1]][0])})")
+    at = np.minimum(np.searchsorted(sorted0, ids), max(n0 - 1, 0))
+    unknown = ids[sorted0[at] != ids] if n0 else ids
+    if len(unknown):
+        raise AnalysisError(
+            f"frame {frame.index}: {len(unknown)} particle id(s) are not in frame 0 (e.g. {int(unknown[0])}): "
+            "a frame's ids must be a subset of frame 0's (the particles seeded)"
+        )
+    rows = order[at]
+    if len(np.unique(rows)) != n:
+        raise AnalysisError(f"frame {frame.index} repeats particle ids")
+    return rows
 
 
 def _body_names(path: Path) -> list[str]:

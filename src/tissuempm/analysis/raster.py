@@ -21,6 +21,11 @@ Method (``h`` = particle spacing):
    for openings); the *wound* is the remaining interior
    region containing the shot-line point ``(0, 0)``, else the one nearest to it within a search radius.
 5. the wound's ellipse has the same second moments as the region (:func:`skimage.measure.regionprops`).
+
+The longitudinal section of the figures (:func:`section`) is a different raster: each pixel of the
+plane through the shot line shows the particle nearest to it in 3-D within one spacing
+(:data:`SECTION_REACH`), so it follows the material wherever it has moved, and a pixel with no
+particle that close is empty in the data too (docs/wound.md, Figures).
 """
 
 from dataclasses import dataclass
@@ -30,6 +35,8 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 from skimage.measure import label, regionprops
 
+from tissuempm.analysis.shotline import ShotLine
+
 PIXELS_PER_SPACING = 4
 """Pixels per particle spacing ``h`` (pixel = h / 4)."""
 COVER_RADIUS = 0.55
@@ -38,6 +45,10 @@ CLOSING_RADIUS = 0.25
 """Radius of the closing disk, in spacings."""
 MARGIN = 2.0
 """Empty border around the particles, in spacings."""
+SECTION_REACH = 1.0
+"""A section pixel shows the nearest particle within this many spacings, else nothing: every point of
+an intact lattice lies within ``sqrt(3) / 2 = 0.87`` of one, of a nearly incompressible one stretched
+1.36 times in two directions (or 1.67 times in one) within 1 (docs/wound.md, Figures)."""
 
 
 def _disk(radius: float) -> np.ndarray:
@@ -49,7 +60,8 @@ def _disk(radius: float) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Raster:
-    """A pixel grid in the in-plane coordinates ``(u, v)``: pixel ``[i, j]`` has its centre at
+    """A pixel grid in the in-plane coordinates ``(u, v)`` of a cross section (or ``(u, s)`` of the
+    longitudinal :func:`section`): pixel ``[i, j]`` has its centre at
     ``lower + pixel * (i, j)`` (rows along ``u``, columns along ``v``). Pixel edges lie on multiples of
     the pixel size, so the shot-line point ``(0, 0)`` is a pixel corner and a lattice of particles
     centred on the shot line never has a particle exactly at a pixel centre."""
@@ -71,11 +83,24 @@ class Raster:
         if len(uv):
             lo, hi = np.maximum(uv.min(axis=0), lo), np.minimum(uv.max(axis=0), hi)
             hi = np.maximum(hi, lo)
+        return cls.covering(lo - MARGIN * spacing, hi + MARGIN * spacing, spacing)
+
+    @classmethod
+    def covering(cls, lo: np.ndarray, hi: np.ndarray, spacing: float) -> "Raster":
+        """Grid of pixel ``spacing / PIXELS_PER_SPACING`` whose pixels cover the box ``[lo, hi]`` (2,),
+        pixel edges on multiples of the pixel size."""
         pixel = spacing / PIXELS_PER_SPACING
-        first = np.floor((lo - MARGIN * spacing) / pixel)
-        last = np.ceil((hi + MARGIN * spacing) / pixel)
+        first = np.floor(np.asarray(lo) / pixel)
+        last = np.ceil(np.asarray(hi) / pixel)
         shape = (last - first).astype(int) + 1
         return cls((first + 0.5) * pixel, pixel, (int(shape[0]), int(shape[1])), spacing)
+
+    @property
+    def extent(self) -> tuple[float, float, float, float]:
+        """Outer pixel edges ``(u_min, u_max, v_min, v_max)`` (for :meth:`matplotlib.axes.Axes.imshow`)."""
+        lo = self.lower - 0.5 * self.pixel
+        hi = lo + self.pixel * np.asarray(self.shape)
+        return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
 
     def centres(self) -> np.ndarray:
         """Centres of all pixels, (rows * columns, 2), row-major."""
@@ -89,12 +114,51 @@ class Raster:
 
 def coverage(raster: Raster, uv: np.ndarray) -> np.ndarray:
     """Covered pixels (boolean image) of particles at in-plane positions ``uv`` (steps 2-3 of the module)."""
-    if len(uv) == 0:
-        return np.zeros(raster.shape, dtype=bool)
-    distance, _ = cKDTree(uv).query(raster.centres(), distance_upper_bound=COVER_RADIUS * raster.spacing)
-    covered = np.isfinite(distance).reshape(raster.shape)
+    covered = (nearest_within(uv, raster.centres(), COVER_RADIUS * raster.spacing) >= 0).reshape(raster.shape)
     structure = _disk(CLOSING_RADIUS * PIXELS_PER_SPACING)
     return ndimage.binary_closing(covered, structure=structure)
+
+
+def nearest_within(sites: np.ndarray, queries: np.ndarray, reach: float) -> np.ndarray:
+    """Row of the site nearest to each of the ``queries`` (k, d) among ``sites`` (n, d), where it lies
+    within ``reach``; -1 where none does (:class:`scipy.spatial.cKDTree`)."""
+    if len(sites) == 0:
+        return np.full(len(queries), -1, dtype=np.intp)
+    distance, index = cKDTree(sites).query(queries, distance_upper_bound=reach)
+    return np.where(np.isfinite(distance), index, -1)
+
+
+def section(
+    line: ShotLine, points: np.ndarray, lo: np.ndarray, hi: np.ndarray, spacing: float
+) -> tuple[Raster, np.ndarray]:
+    """Nearest-particle raster of the plane through the shot line spanned by ``e1`` and the axis.
+
+    Parameters
+    ----------
+    line
+        The shot line; pixel ``(u, s)`` is the point ``o + u e1 + s n``.
+    points
+        Current particle positions (n, 3).
+    lo, hi
+        Corners ``(u, s)`` of the box to cover [m].
+    spacing
+        Particle spacing ``h``: the pixel is ``h / PIXELS_PER_SPACING``, the reach ``SECTION_REACH h``.
+
+    Returns
+    -------
+    The grid (rows along ``e1``, columns along the axis) and, per pixel, the row in ``points`` of the
+    particle nearest to the pixel centre in 3-D if it lies within the reach, else -1.
+    """
+    raster = Raster.covering(lo, hi, spacing)
+    reach = SECTION_REACH * spacing
+    close = np.flatnonzero(np.abs(line.inplane(points)[:, 1]) <= reach)  # only these can be within reach
+    centres = raster.centres()
+    xyz = line.origin + centres[:, :1] * line.e1 + centres[:, 1:] * line.axis
+    found = nearest_within(points[close], xyz, reach)
+    nearest = np.full(len(xyz), -1, dtype=np.intp)
+    hit = found >= 0
+    nearest[hit] = close[found[hit]]
+    return raster, nearest.reshape(raster.shape)
 
 
 def wound_region(raster: Raster, covered: np.ndarray, search_radius: float) -> np.ndarray | None:

@@ -22,7 +22,7 @@ class Opening:
     """``"entry"`` or ``"exit"``."""
     hole: bool
     particles: int
-    """Tissue particles in the face layer."""
+    """Tissue particles in the face layer (in frame 0: removed ones included)."""
     area: float = 0.0
     diameter: float = 0.0
     """Equivalent diameter ``sqrt(4 A / pi)``."""
@@ -66,10 +66,16 @@ class Tract:
     cavity_failed_max: float
     cavity_failed_mean: float
     """Mean over the stations with an open cavity plus failed layer (0 if none)."""
-    slope: float | None
-    """Least-squares slope of cavity diameter against depth over the open stations (dimensionless)."""
-    widening: str | None
-    """``"widens"``, ``"narrows"`` or ``"uniform"`` (the fitted change over the thickness is under one spacing)."""
+    slope: float | None = None
+    """Least-squares slope of the cavity diameter against depth over the open stations below the entry
+    crater, from ``crater_depth`` to the exit [m/m = mm/mm]."""
+    widening: str | None = None
+    """``"widens"``, ``"narrows"`` (sign of ``slope``) or ``"straight"`` (the fitted change of diameter from
+    ``crater_depth`` to the last station is under one spacing)."""
+    crater_depth: float | None = None
+    """Depth of the neck that ends the entry crater: the narrowest open station of the upper half."""
+    half_angle_deg: float | None = None
+    """``atan(slope / 2)`` in degrees: the tract's half-angle (negative when it narrows)."""
 
 
 @dataclass(frozen=True)
@@ -99,13 +105,34 @@ class FailureTally:
     """Failure states of the tissue particles in the analysed frame."""
 
     tissue_particles: int
+    """In frame 0, removed ones included."""
     all_particles: int
+    """In frame 0."""
     counts: dict[str, int]
-    """By state (``intact``, ``matrix``, ``fiber``, ``both``) and ``failed`` (any failure, code > 0)."""
+    """By state (``intact``, ``matrix``, ``fiber``, ``both``) of the particles in the frame, and
+    ``failed``: any failure (code > 0) or eroded."""
     fractions: dict[str, float]
     """``counts / tissue_particles``."""
     failed_fraction_all: float
     """Failed tissue particles over all particles of the run (projectile included)."""
+    eroded: int = 0
+    """Tissue particles eroded by this frame (failed, removed: counted in ``failed``)."""
+    outflow: int = 0
+    """Tissue particles that left the grid by this frame (neither intact nor failed)."""
+
+
+@dataclass(frozen=True)
+class Removed:
+    """Particles the run took out by the analysed frame: the ids of frame 0 the frame lacks."""
+
+    bodies: dict[str, dict[str, int]]
+    """By body name: ``outflow`` (left the grid), ``eroded`` (failed and removed) and ``total``."""
+    reasons_from: str | None = None
+    """How the reasons were told apart: ``"summary"``, ``"grid"`` or ``"bodies"``
+    (:mod:`tissuempm.analysis.removed`); None when nothing is missing."""
+    run: dict[str, int] | None = None
+    """What the whole run removed, from ``summary.json``: ``outflow``, ``eroded`` (deformable
+    particles) and ``rigid``; None without a summary that says."""
 
 
 @dataclass(frozen=True)
@@ -138,6 +165,7 @@ class WoundReport:
     entry: Opening
     exit: Opening
     tract: Tract
+    removed: Removed
 
     def to_dict(self) -> dict[str, Any]:
         """The report as JSON-ready nested dicts and lists."""

@@ -19,12 +19,13 @@ FRAME_FIELDS: tuple[str, ...] = (
 
 DEFAULT_FRAME_FIELDS: tuple[str, ...] = (
     "velocity", "pressure", "von_mises", "J", "fiber_current", "fiber_stretch", "failure", "state", "material", "body",
-    "mass", "size", "x0",
+    "mass", "size", "x0", "id",
 )  # fmt: skip
 """Frame fields when ``[run] fields`` is not given: what the examples colour by (failure code,
 von Mises stress, fiber stretch, ...) and what ``tissuempm wound`` needs (mass, size, reference
-position x0: :data:`tissuempm.analysis.frames.REQUIRED_FIELDS`); about 90 bytes per particle instead
-of about 230 for all."""
+position x0: :data:`tissuempm.analysis.frames.REQUIRED_FIELDS`), and ``id`` (the particle's index at
+seeding, which follows it once others are removed: :mod:`tissuempm.mpm.removal`); about 95 bytes
+per particle instead of about 230 for all."""
 
 
 def check_fields(names: Iterable[str]) -> list[str]:

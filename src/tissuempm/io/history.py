@@ -1,10 +1,18 @@
 """A CSV time series of global quantities, one row per output frame (``history.csv``).
 
 Columns: ``time`` [s], ``step``, ``kinetic_energy`` [J], ``momentum_x/y/z`` [kg m/s]
-and ``internal_work`` [J] of the deformable particles, ``failed`` (particles with a
+and ``internal_work`` [J] of the deformable particles, ``bulk_viscosity_work`` [J] (the energy
+the artificial bulk viscosity has dissipated; 0 without it), ``failed`` (particles with a
 failure code > 0), ``reaction_<material>_x/y/z`` [N] on each rigid material and
 ``fixed_reaction_x/y/z`` [N] on the fixed particles (the force the rest of the model
-exerts on them; e.g. the grip force of a tensile test).
+exerts on them; e.g. the grip force of a tensile test). Then, for each free rigid body (by its
+material's name; its contact force is its ``reaction_<material>`` columns),
+``velocity_<material>_x/y/z`` [m/s] and ``position_<material>_x/y/z`` [m] (centre of mass of its
+particles; NaN once it has none left); for each removal reason (``outflow``, ``eroded``:
+:mod:`tissuempm.mpm.removal`) what the removed deformable particles took with them so far,
+``<reason>_count``, ``<reason>_mass`` [kg], ``<reason>_momentum_x/y/z`` [kg m/s] and
+``<reason>_kinetic_energy`` [J]; ``removed_rigid_count`` (rigid-body particles removed) and
+``particles`` (particles left).
 """
 
 import csv
@@ -17,16 +25,26 @@ from tissuempm.io.files import atomic_path
 
 
 class HistoryLog:
-    """Appends rows to ``path``; ``rigid`` maps rigid material index -> name."""
+    """Appends rows to ``path``; ``rigid`` maps rigid material index -> name, ``free`` lists the
+    free rigid bodies among them, ``removed`` names the entries of a snapshot's ``removed`` array
+    (``State.removed`` flattened: ``<reason>_<column>``)."""
 
-    def __init__(self, path: str | Path, rigid: dict[int, str]):
+    def __init__(self, path: str | Path, rigid: dict[int, str], free: tuple[int, ...] = (),
+                 removed: tuple[str, ...] = ()):  # fmt: skip
         self.path = Path(path)
         self.rigid = dict(rigid)
+        self.free = tuple(free)
+        self.removed = tuple(removed)
         xyz = ("x", "y", "z")
-        self.columns = ["time", "step", "kinetic_energy", *(f"momentum_{c}" for c in xyz), "internal_work", "failed"]
+        self.columns = ["time", "step", "kinetic_energy", *(f"momentum_{c}" for c in xyz), "internal_work",
+                        "bulk_viscosity_work", "failed"]  # fmt: skip
         for name in self.rigid.values():
             self.columns += [f"reaction_{name}_{c}" for c in xyz]
         self.columns += [f"fixed_reaction_{c}" for c in xyz]
+        for i in self.free:
+            self.columns += [f"{q}_{self.rigid[i]}_{c}" for q in ("velocity", "position") for c in xyz]
+        self.columns += list(self.removed)
+        self.columns += ["removed_rigid_count", "particles"]
 
     def row(self, data: dict[str, Any]) -> list[float]:
         """The row of one ``State.to_numpy()`` snapshot."""
@@ -39,10 +57,21 @@ class HistoryLog:
         out = [float(data["time"]), int(data["step"]), 0.5 * float(np.sum(m * np.sum(v * v, axis=1)))]
         out += list((m[:, None] * v).sum(axis=0))
         out.append(float(np.sum(np.asarray(data.get("work", np.zeros(len(m))))[deform])))
+        out.append(float(np.sum(np.asarray(data.get("bulk_work", np.zeros(len(m)))))))
         out.append(int(np.sum(np.asarray(data.get("failure", np.zeros(len(m)))) > 0)))
         for i in self.rigid:
             out += list(R[mat == i].sum(axis=0))
         out += list(R[fixed & deform].sum(axis=0))
+        x = np.asarray(data["x"], float)
+        mass = np.asarray(data["mass"], float)
+        for i in self.free:
+            sel = mat == i
+            if not np.any(sel):
+                out += [float("nan")] * 6
+                continue
+            out += list(v[sel][0]) + list((mass[sel, None] * x[sel]).sum(axis=0) / mass[sel].sum())
+        out += list(np.asarray(data.get("removed", np.zeros(len(self.removed))), float).ravel()[: len(self.removed)])
+        out += [int(data.get("removed_rigid", 0)), len(m)]
         return out
 
     def append(self, data: dict[str, Any]) -> None:

@@ -36,7 +36,7 @@ import numpy as np
 
 from tissuempm.io.files import atomic_path
 
-_SKIP = {"x", "order", "vpic"}  # points; the solver's storage permutation and PIC scratch velocity
+_SKIP = {"x", "order", "vpic", "removed"}  # points; the solver's storage permutation, PIC scratch velocity, removal totals
 
 
 def _flat(a: np.ndarray, n: int) -> np.ndarray:

@@ -2,8 +2,9 @@
 
 Built-in entries: the 39 head and torso components of Brewick et al. 2017
 (NRL report, tables A1-A4: equations of state, hyperelastic, viscoelastic bone,
-hyper-viscoelastic soft tissue) and the parameter sets of the tests of Ionescu
-et al. 2006 (myocardium, medial collateral ligament, lead projectile). All values
+hyper-viscoelastic soft tissue), the parameter sets of the tests of Ionescu
+et al. 2006 (myocardium, medial collateral ligament, lead projectile) and ballistic
+gelatin cards of explicit impact codes (failure layer around elastic-plastic). All values
 are SI; derived quantities (bulk moduli from Poisson's ratios, rule-of-mixture
 bone properties, ...) are computed from the published inputs.
 

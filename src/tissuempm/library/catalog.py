@@ -3,7 +3,7 @@
 Sources, later ones overriding earlier ones by name:
 
 1. the built-in tables in ``tissuempm/library/data`` (Brewick et al. 2017 tables
-   A1-A4 and the sets of Ionescu et al. 2006);
+   A1-A4, the ballistic gelatin cards and the sets of Ionescu et al. 2006);
 2. ``~/.tissuempm/materials``;
 3. the directories listed in the environment variable ``TISSUEMPM_LIBRARY_PATH``
    (separated by ``os.pathsep``);
@@ -162,7 +162,8 @@ def _files_in(location: Path) -> list[Path]:
 # ---------------------------------------------------------------------- catalog
 @functools.cache
 def builtin_entries() -> tuple[LibraryEntry, ...]:
-    """Entries of the built-in data files, in file order (tables A1-A4, then Ionescu 2006)."""
+    """Entries of the built-in data files, in file order (tables A1-A4, then the other files by name:
+    gelatin, Ionescu 2006)."""
     out: list[LibraryEntry] = []
     for path in sorted(DATA_DIR.glob("table_*.toml")) + sorted(
         p for p in DATA_DIR.glob("*.toml") if not p.name.startswith("table_")

@@ -25,10 +25,12 @@ from tissuempm.materials.yeoh import Yeoh
 from tissuempm.materials.weiss import Weiss
 from tissuempm.materials.failure import FailureMode, TwoSurfaceFailure
 from tissuempm.materials.elastic_plastic import ElasticPlastic
+from tissuempm.materials.failure_layer import Failure
 
 __all__ = [
     "MATERIALS",
     "ElasticPlastic",
+    "Failure",
     "FailureMode",
     "HGO",
     "IdealGas",

@@ -340,6 +340,22 @@ class Material:
         the converged step). Laws without failure return themselves."""
         return self
 
+    def failure_slot(self) -> int | None:
+        """Index in a history row of the state variable named ``failure`` (1 slot; 0 intact, nonzero
+        failed, codes of :class:`tissuempm.materials.failure.FailureMode`), or None for a law without
+        one. Frames, checkpoints and the analysis read the failure code from this slot."""
+        sl = self.state_layout().get("failure")
+        return None if sl is None else sl.start
+
+    def erodes(self) -> bool:
+        """Whether the solver removes this law's particles once failed (erosion).
+
+        Contract with the solver: a particle whose law ``erodes()`` and whose history slot
+        :meth:`failure_slot` is nonzero is taken out of the computation (no mass, momentum or
+        stress transferred to the grid). False for every law but a failure layer built with
+        ``erosion=True`` (:class:`tissuempm.materials.failure_layer.Failure`)."""
+        return False
+
     def strain_energy(self, F: np.ndarray, a0: np.ndarray | None = None) -> float:
         """Strain energy per unit reference volume W(F) [J/m^3] (NumPy), for hyperelastic laws."""
         raise NotImplementedError(f"{type(self).__name__} has no strain energy")

@@ -95,12 +95,29 @@ O_CONV = O_GAMMA + 2
 
 
 @wp.func
+def eigen_angle(C: wp.mat33d):
+    """``(q, p, phi)`` of the trigonometric solution of a symmetric 3x3 matrix's characteristic cubic.
+
+    Smith (1961): with q = tr C / 3, B = C - q I, p = sqrt(tr(B^2) / 6) and
+    r = det(B / p) / 2, the eigenvalues are q + 2p cos(phi + 2 pi k / 3), k = 0, 1, 2,
+    phi = acos(r) / 3 in [0, pi/3]; k = 0 is the largest. p = phi = 0 for C = q I.
+    Shared by :func:`eigen_spread` and :func:`eigen_max`.
+    """
+    q = wp.trace(C) / wp.float64(3.0)
+    B = C - q * wp.identity(n=3, dtype=wp.float64)
+    p2 = (wp.ddot(B, B)) / wp.float64(6.0)
+    if p2 <= wp.float64(0.0):
+        return q, wp.float64(0.0), wp.float64(0.0)
+    p = wp.sqrt(p2)
+    r = wp.clamp(wp.determinant(B / p) * wp.float64(0.5), wp.float64(-1.0), wp.float64(1.0))
+    return q, p, wp.acos(r) / wp.float64(3.0)
+
+
+@wp.func
 def eigen_spread(C: wp.mat33d):
     """Largest minus smallest eigenvalue of a symmetric 3x3 matrix, in closed form.
 
-    Trigonometric solution of the characteristic cubic (Smith 1961): with
-    q = tr C / 3, B = C - q I, p = sqrt(tr(B^2) / 6) and r = det(B / p) / 2,
-    the eigenvalues are q + 2p cos(phi + 2 pi k / 3), phi = acos(r) / 3, so::
+    Trigonometric solution of the characteristic cubic (:func:`eigen_angle`)::
 
         e_max - e_min = 2p (cos phi - cos(phi + 2 pi / 3)) = 2 sqrt(3) p sin(phi + pi / 3)
 
@@ -109,21 +126,32 @@ def eigen_spread(C: wp.mat33d):
     p cos(phi + pi/3): at most ~1e-7 of the spread in float64 (tests/materials/test_failure.py). Cheaper
     than ``wp.eig3`` (Jacobi sweeps), which only the eigenvectors would need.
     """
-    q = wp.trace(C) / wp.float64(3.0)
-    B = C - q * wp.identity(n=3, dtype=wp.float64)
-    p2 = (wp.ddot(B, B)) / wp.float64(6.0)
-    if p2 <= wp.float64(0.0):
-        return wp.float64(0.0)
-    p = wp.sqrt(p2)
-    r = wp.clamp(wp.determinant(B / p) * wp.float64(0.5), wp.float64(-1.0), wp.float64(1.0))
-    phi = wp.acos(r) / wp.float64(3.0)
+    q, p, phi = eigen_angle(C)
     return wp.float64(2.0 * math.sqrt(3.0)) * p * wp.sin(phi + wp.float64(math.pi / 3.0))
+
+
+@wp.func
+def eigen_max(C: wp.mat33d):
+    """Largest eigenvalue q + 2p cos(phi) of a symmetric 3x3 matrix (:func:`eigen_angle`).
+
+    Near a double largest eigenvalue (r -> -1, phi -> pi/3) the O(sqrt(eps)) error of acos enters
+    with the factor 2p sin(phi): ~1e-8 p in float64, far below any failure limit's resolution;
+    near a double smallest one (phi -> 0) it enters to second order.
+    """
+    q, p, phi = eigen_angle(C)
+    return q + wp.float64(2.0) * p * wp.cos(phi)
+
+
+def principal_green_strains(F: np.ndarray) -> np.ndarray:
+    """Principal Green-Lagrange strains E1 <= E2 <= E3 of ``F`` (NumPy, the closed forms' reference):
+    eigenvalues of E = (F^T F - I)/2, ascending."""
+    F = np.asarray(F, dtype=float)
+    return np.linalg.eigvalsh(0.5 * (F.T @ F - np.eye(3)))
 
 
 def shear_strain_measure(F: np.ndarray, convention: str = "seed") -> float:
     """Matrix failure measure of ``F`` (NumPy): (E1 - E3)/2 ("seed") or E1 - E3 ("uintah")."""
-    F = np.asarray(F, dtype=float)
-    e = np.linalg.eigvalsh(0.5 * (F.T @ F - np.eye(3)))
+    e = principal_green_strains(F)
     return float(e[-1] - e[0]) * (0.5 if convention == "seed" else 1.0)
 
 

@@ -27,6 +27,12 @@ SHAPES: tuple[str, ...] = ("linear", "gimp", "cpgimp", "bspline")
 TRANSFERS: tuple[str, ...] = ("usl", "musl", "usf")
 GRIDS: tuple[str, ...] = ("reset", "no_reset")
 DEVICES: tuple[str, ...] = ("cpu", "cuda")
+OUTFLOWS: tuple[str, ...] = ("remove", "stop")
+"""What a particle leaving the grid does: ``"remove"`` (it is taken out of the computation and
+counted, :mod:`tissuempm.mpm.removal`) or ``"stop"`` (:class:`InstabilityError` ``"left grid"``)."""
+ANTI_LOCKING: tuple[str, ...] = ("none", "fbar")
+"""Volumetric treatments: ``"none"`` (each particle's own F) or ``"fbar"`` (cell-averaged
+volume change, :mod:`tissuempm.mpm.volumetric`)."""
 
 
 def _vec3(name: str, value: Any) -> tuple[float, float, float]:
@@ -84,6 +90,23 @@ class SolverConfig:
         With ``grid="no_reset"``: reset once a particle has moved this many cells (``None``: never).
     reset_interval
         With ``grid="no_reset"``: reset every this many steps (``None``: never).
+    anti_locking
+        Volumetric treatment: ``"none"`` (each particle's own F) or ``"fbar"`` (the volume change
+        averaged over each cell and velocity field, Coombs et al. 2018; :mod:`tissuempm.mpm.volumetric`).
+        ``None`` (default): ``"fbar"`` for the explicit solver, ``"none"`` for the implicit one
+        (docs/mpm.md says why).
+    bulk_viscosity_linear, bulk_viscosity_quadratic
+        Artificial bulk viscosity coefficients C_L and C_Q (dimensionless, >= 0; 0 and 0 switch it
+        off; LS-DYNA's defaults are 0.06 and 1.5): in compression (tr D < 0) every deformable
+        particle carries the pressure q = rho h (C_Q h (tr D)^2 - C_L c tr D) on top of its law's
+        stress (von Neumann & Richtmyer 1950; Wilkins 1980), with h the cell size and c the law's
+        wave speed; the energy it dissipates is tracked per particle
+        (:mod:`tissuempm.mpm.bulk_viscosity`).
+    outflow
+        A particle that leaves the grid through a face without a wall: ``"remove"`` (default; it is
+        taken out of the computation and its count, mass, momentum and kinetic energy are
+        accumulated, :mod:`tissuempm.mpm.removal`) or ``"stop"`` (:class:`InstabilityError`,
+        reason ``"left grid"``).
     """
 
     shape: ShapeFunction = "gimp"
@@ -103,6 +126,10 @@ class SolverConfig:
     grid: str = "reset"
     reset_distance: float | None = None
     reset_interval: int | None = None
+    anti_locking: str | None = None
+    bulk_viscosity_linear: float = 0.0
+    bulk_viscosity_quadratic: float = 0.0
+    outflow: str = "remove"
 
     def __post_init__(self) -> None:
         if self.shape not in SHAPES:
@@ -137,6 +164,19 @@ class SolverConfig:
             raise ValueError(f"reset_distance = {self.reset_distance!r}: must be > 0 cells or None")
         if self.reset_interval is not None and (not isinstance(self.reset_interval, int) or self.reset_interval < 1):
             raise ValueError(f"reset_interval = {self.reset_interval!r}: must be an integer >= 1 or None")
+        if self.anti_locking is not None and self.anti_locking not in ANTI_LOCKING:
+            raise ValueError(f"anti_locking = {self.anti_locking!r} is not valid: choose one of {', '.join(ANTI_LOCKING)}")
+        for name in ("bulk_viscosity_linear", "bulk_viscosity_quadratic"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and 0.0 <= v <= 10.0):
+                raise ValueError(f"{name} = {v!r} is out of range: valid range is [0, 10]")
+        if self.outflow not in OUTFLOWS:
+            raise ValueError(f"outflow = {self.outflow!r} is not valid: choose one of {', '.join(OUTFLOWS)}")
+
+    @property
+    def bulk_viscosity(self) -> bool:
+        """Whether the artificial bulk viscosity is on."""
+        return self.bulk_viscosity_linear > 0.0 or self.bulk_viscosity_quadratic > 0.0
 
     @property
     def n_threads(self) -> int:

@@ -10,11 +10,15 @@ every node where two fields ``a`` and ``b`` both have mass:
    ``n = (grad m_b - grad m_a) / |grad m_b - grad m_a|`` (from ``a`` into ``b``; grad m by a
    27-node Sobel difference of the nodal masses, i.e. the smoothed finite-difference gradient
    of m_i = sum_p S_ip m_p; the denser body's surface dominates, as in Uintah's mass-gradient
-   normals);
+   normals); against a rigid or fixed field that field's own gradient alone. On a slip face (a
+   symmetry plane) the component across the face is dropped: by symmetry it is 0 (the mirror
+   body is not on the grid, and the one-sided difference tilted the normal at a quarter model's
+   contact centre by up to 45 deg);
 2. the fields approach when ``(v_a - v_b) . n > 0``; separating fields are left alone
-   (separation is free), approaching ones exchange the impulse ``J`` (``a`` loses it, ``b``
-   gains it) that removes the normal relative velocity, with the tangential part limited by
-   Coulomb friction::
+   (separation is free);
+3. they touch (``separation = "gap"``, below; ``"node"``: always, the original method);
+4. approaching fields that touch exchange the impulse ``J`` (``a`` loses it, ``b`` gains it)
+   that removes the normal relative velocity, with the tangential part limited by Coulomb friction::
 
        m* = m_a m_b / (m_a + m_b)            (m_b if a is rigid or fixed, m_a if b is)
        J_n = m* ((v_a - v_b) . n) n
@@ -29,14 +33,74 @@ A rigid body (or a field held by fixed particles) has infinite mass: only the ot
 corrected, and the impulse it receives, divided by dt, is added to the rigid field's reaction force, so rigid
 indenters and projectiles slide on and separate from tissue and report their contact force.
 
+**When the fields touch.** Two fields share a node as soon as their particles' GIMP stencils
+overlap, about a cell before the bodies touch, so with the approach test alone (Bardenhagen et
+al. 2000) a body acts as if it were about a cell (2h in diameter) larger: a flat punch held +19 %
+force at h = H/8, a sphere striking a wall met it a cell early and stayed in contact 75 % longer
+than Hertz (R = 5 cells), a rolling sphere rode 0.3 cells above its plane. Nairn's "displacement
+check" (Lemiale et al. 2010, CMES 70, 41; Nairn 2013, "Modeling imperfect interfaces in the
+material point method using multimaterial methods", CMES 92, 271; Nairn, Bardenhagen & Smith
+2018, "Generalized contact and improved frictional heating in the material point method", CPM 5,
+285; Uintah's ``FrictionContactBard``, ``separation_factor``) compares the nodal centres of mass
+of the two fields, ``x_f = sum_p S_ip m_p x_p / sum_p S_ip m_p``, with a cutoff
+(``(x_b - x_a) . n < 0.8 h`` for uGIMP at 2 particles per cell, calibrated). A fixed cutoff, or
+subtracting the particles' half sizes from ``(x_b - x_a) . n``, cannot be exact: the distance
+from a body's nodal centre to its surface runs from 0 to a cell with the node's position (a third
+of a cell with the node on the surface), so two touching bodies read 0.67-1 cell apart. Uintah's
+volume check (contact where the fields' nodal volumes fill the node) is exact for a plane but
+reads a body's edge, or a contact patch narrower than a node's support, as open. Here the centres
+are turned into surface positions, which needs no cutoff and does not depend on how much of the
+support a body covers sideways:
+
+* the position record of each field (scattered in the MASS P2G into ``(sum m X, sum m S)``, reduced
+  with the other records; :func:`tissuempm.mpm.kernels._helpers` ``scatter_position``) holds the
+  first moment of each particle's box (its GIMP domain, or ``size`` for the other shapes) under
+  the node's weight, ``X_ip = int_box N_i x dV / V_p``, not ``S_ip x_p`` (which puts the
+  material at the particle centres: 0.06 cell too deep for a surface on a node at 2 particles
+  per cell). So ``x_f`` is the tent-weighted centre of the material the particles fill: ::
+
+      xi_f = (x_f - x_i) . n / h = m1(c_f) / m0(c_f)                                           (1)
+
+  for a body filling ``y <= c_f`` along ``n`` (y in cells from the node), with the kernel moments
+  ``m0(c) = int_{y <= c} N``, ``m1(c) = int_{y <= c} N y`` of the 1-D tent ``N = 1 - |y|``
+  (quadratic B-spline for ``"bspline"``). Exact for a plane along a grid axis and independent of
+  how much of the node's support the body covers sideways (the centre's component along n is
+  that of the 1-D problem): a body's edge or a contact patch smaller than the support reads as
+  well as a wide one. For an oblique plane the kernel of ``y = x . n`` is a sum of the axes'
+  tents (of the same variance): the surface comes out within 0.02 cell for -0.3 <= c <= 0.7 and
+  0.06-0.08 cell inside it at c = -0.7 (normals along (1, 1, 0) and (1, 1, 1), sampled);
+* the inverse of (1) (:func:`surface_function`) gives each surface: ``c_a = surface(xi_a)``
+  for a (which lies on the ``-n`` side), ``c_b = -surface(-xi_b)`` for b; the gap along n is
+  ``g = c_b - c_a`` [cells]                                                                  (2)
+* the pair is corrected when the gap closes within the step and the interface lies at the node: ::
+
+      g h <= dt (v_a - v_b) . n     and     |c_a + c_b| / 2 <= 0.6 (|n_x| + |n_y| + |n_z|)     (3)
+
+  The second condition keeps the correction at the nodes nearest the interface, a layer about
+  1.2 reaches thick (the reach of a node's support along n, 1 cell along an axis, sqrt(2) and
+  sqrt(3) along the diagonals, where the node layers are closer: 0.71 and 0.58 cell apart): a node
+  a cell inside one body sees a sliver of the other as soon as it presses in by the slightest
+  amount (a uGIMP box keeps its size while the material under it is compressed: under the punch
+  the block's top boxes lag the punch by h / 4H of the stroke), and correcting there too locks
+  that cell (the punch's +19 %, gone with this condition: +2.6 %). With half a reach instead of
+  0.6 the diagonal collision of the Sulsky disks lost the second node layer (at 0.71 cell): the
+  fronts of the disks' particle boxes overlapped by 1.4 cells along the collision axis (0.6 with
+  it; 0.05 with the node criterion, which stops them a cell early).
+
+Bodies now meet when their particles' domains touch: the sphere's first contact force comes
+within 0.005-0.08 cell of travel of touching (a cell early before), its peak force and contact
+time are within 8 % and 3 % of Hertz at 5 cells per radius and 1 % at 8; the disks approach to
+a centre distance of 0.326 m (0.319 m at h/2; the node criterion: 0.368, 0.339 m: they converge
+from above, the gap criterion faster) (docs/verification.md). The price: in strongly compressed
+contact zones the surface particles' 1/4 share of the next node's velocity lets them press into
+the other body by about (local strain) h / 4 (a soft rolling sphere of 3 cells radius sits 0.2
+cell deep; it rode 0.3 cell above before); this vanishes with h like the other contact errors.
+
 Conservation: the sum of m_f v_f over the fields of a node is unchanged by every pair
 correction (exactly, to round-off), and kinetic energy cannot grow: the normal part is a
 perfectly plastic impact of the two nodal masses and the friction part reduces the tangential
-relative speed (tests/mpm/test_contact.py checks both on random nodal states).
-
-Known limitation (as in every nodal-contact MPM): fields meet at a node when their particles
-are within about one cell (GIMP stencils overlap), so bodies interact up to one cell before
-they touch; refine the grid where this matters.
+relative speed (tests/mpm/test_contact.py checks both on random nodal states, with either
+separation criterion: the gap criterion only withholds corrections).
 """
 
 import functools
@@ -47,12 +111,18 @@ from typing import Any, Literal
 import numpy as np
 import warp as wp
 
-from tissuempm.mpm.kernels import UPDATE, boundary_function, node_indices, node_strides, vec4_helpers
+from tissuempm.mpm.kernels import BC_SLIP, UPDATE, boundary_function, node_indices, node_strides, on_face, vec4_helpers
 from tissuempm.precision import WarpTypes, kernel
 
 ContactKind = Literal["bonded", "frictionless", "friction"]
 CONTACT_KINDS: tuple[str, ...] = ("bonded", "frictionless", "friction")
+Separation = Literal["gap", "node"]
+SEPARATIONS: tuple[str, ...] = ("gap", "node")
 
+BAND = 0.6
+"""Half-width of the band around the interface whose nodes carry the contact, as a fraction of
+the reach |n_x| + |n_y| + |n_z| [cells] of a node's support along the normal (eq. (3); 1.5 times
+that for ``"bspline"``, whose weights reach 1.5 cells)."""
 FRICTIONLESS = wp.constant(1)
 FRICTION = wp.constant(2)
 _CODE = {"frictionless": 1, "friction": 2}
@@ -70,14 +140,22 @@ class ContactLaw:
         ``"friction"``: as frictionless, with Coulomb friction ``mu`` on sliding.
     mu
         Coulomb friction coefficient (>= 0), only for ``"friction"``.
+    separation
+        When two fields that share a node are in contact (module docstring): ``"gap"`` (default)
+        when the gap between their surfaces, estimated from the nodal centres of mass, has closed;
+        ``"node"`` as soon as both have mass at the node (Bardenhagen et al. 2000; bodies act about
+        one cell larger than they are: the behaviour before the gap estimate, for older results).
     """
 
     kind: ContactKind = "bonded"
     mu: float = 0.0
+    separation: Separation = "gap"
 
     def __post_init__(self) -> None:
         if self.kind not in CONTACT_KINDS:
             raise ValueError(f"contact kind = {self.kind!r}: choose one of {', '.join(CONTACT_KINDS)}")
+        if self.separation not in SEPARATIONS:
+            raise ValueError(f"contact separation = {self.separation!r}: choose one of {', '.join(SEPARATIONS)}")
         if not (isinstance(self.mu, (int, float)) and math.isfinite(self.mu) and self.mu >= 0):
             raise ValueError(f"contact mu = {self.mu!r}: must be a finite number >= 0")
         if self.kind != "friction" and self.mu != 0:
@@ -110,16 +188,19 @@ class Contact:
             if law.kind == "bonded":
                 raise ValueError(f"Contact.laws[{pair}]: bonded bodies belong in one field")
 
-    def tables(self) -> tuple[np.ndarray, np.ndarray]:
-        """(kind code, mu) per ordered field pair, flattened ``a * n_fields + b`` (kernel input)."""
+    def tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(kind code, mu, gap criterion 1/0) per ordered field pair, flattened ``a * n_fields + b``
+        (kernel input)."""
         nf = self.n_fields
         kind = np.zeros(nf * nf, dtype=np.int32)
         mu = np.zeros(nf * nf)
+        gap = np.zeros(nf * nf, dtype=np.int32)
         for (a, b), law in self.laws.items():
             for i, j in ((a, b), (b, a)):
                 kind[i * nf + j] = _CODE[law.kind]
                 mu[i * nf + j] = law.mu
-        return kind, mu
+                gap[i * nf + j] = int(law.separation == "gap")
+        return kind, mu, gap
 
 
 def assign_fields(
@@ -184,14 +265,81 @@ def assign_fields(
 
 
 @functools.cache
-def contact_kernel(t: WarpTypes, mode: int, NF: int) -> Any:
+def surface_function(t: WarpTypes, shape: str) -> Any:
+    """``@wp.func surface(xi) -> c``: where a body's surface lies from a node, given its nodal centre
+    of mass (module docstring, eq. (2)), in cells along the normal.
+
+    The body fills ``y <= c`` along the normal (node at 0, cells); ``xi`` is the offset of its nodal
+    centre of mass, the mean of ``y`` over the body weighted by the shape function's 1-D kernel
+    (tent ``1 - |y|`` for linear and GIMP, the quadratic B-spline for ``"bspline"``). With the kernel
+    moments ``m0(c) = int_{y <= c} N``, ``m1(c) = int_{y <= c} N y`` the centre is ``xi(c) = m1 / m0``,
+    increasing from ``-r`` (``c = -r``, r the kernel's reach) to 0 (``c >= r``); the inverse is found by
+    bisection (20 halvings: 2e-6 r). ``xi >= 0`` (body on both sides of the node) gives ``r``."""
+    s = t.scalar
+    bspline = shape == "bspline"
+    reach = 1.5 if bspline else 1.0
+
+    @wp.func
+    def moments(c: s):
+        """(m0, m1) of the kernel over y <= c (closed forms, piecewise polynomial)."""
+        m0 = s(0.0)
+        m1 = s(0.0)
+        if wp.static(bspline):  # N = 3/4 - y^2 (|y| < 1/2), (3/2 - |y|)^2 / 2 (|y| < 3/2)
+            if c <= s(-0.5):
+                u = c + s(1.5)
+                m0 = u * u * u / s(6.0)
+                m1 = u * u * u * (u / s(8.0) - s(0.25))
+            elif c <= s(0.5):
+                m0 = s(0.5) + s(0.75) * c - c * c * c / s(3.0)
+                m1 = s(0.375) * c * c - s(0.25) * c * c * c * c - s(13.0) / s(64.0)
+            else:
+                w = s(1.5) - c
+                m0 = s(1.0) - w * w * w / s(6.0)
+                m1 = w * w * w * (w / s(8.0) - s(0.25))
+        else:  # N = 1 - |y|
+            if c <= s(0.0):
+                u = c + s(1.0)
+                m0 = s(0.5) * u * u
+                m1 = c * c * (s(0.5) + c / s(3.0)) - s(1.0) / s(6.0)
+            else:
+                w = s(1.0) - c
+                m0 = s(1.0) - s(0.5) * w * w
+                m1 = c * c * (s(0.5) - c / s(3.0)) - s(1.0) / s(6.0)
+        return m0, m1
+
+    @wp.func
+    def surface(xi: s):
+        r = s(reach)
+        if xi >= s(0.0):
+            return r
+        if xi <= -r:
+            return -r
+        lo = -r
+        hi = r
+        for _it in range(20):
+            mid = s(0.5) * (lo + hi)
+            m0, m1 = moments(mid)
+            if m1 < xi * m0:
+                lo = mid
+            else:
+                hi = mid
+        return s(0.5) * (lo + hi)
+
+    return surface
+
+
+@functools.cache
+def contact_kernel(t: WarpTypes, mode: int, NF: int, shape: str = "gimp") -> Any:
     """Nodal contact correction for ``NF`` fields (module docstring) after a grid pass of ``mode``
     (:data:`~tissuempm.mpm.kernels.UPDATE`: corrects ``v_new`` and the FLIP increment ``v_inc``
-    and adds rigid reactions; :data:`~tissuempm.mpm.kernels.VELOCITY`: corrects ``v_vel``)."""
+    and adds rigid reactions; :data:`~tissuempm.mpm.kernels.VELOCITY`: corrects ``v_vel``), the gap
+    estimated with the kernel of ``shape`` (:func:`surface_function`)."""
     s, vec3, vec4 = t.scalar, t.vec3, t.vec4
     apply_bc = boundary_function(t)
     v4 = vec4_helpers(t)
     pack, head = v4.pack, v4.head
+    surface = surface_function(t, shape)
+    KERNEL_REACH = 1.5 if shape == "bspline" else 1.0  # of a node's weight along an axis [cells]
 
     @wp.func
     def record_mass(g_mm: wp.array(dtype=vec4), g_c: wp.array(dtype=vec4), r: int, r_lo: int, r_hi: int):
@@ -216,6 +364,33 @@ def contact_kernel(t: WarpTypes, mode: int, NF: int) -> Any:
                     wk = s(2 - (k - 1) * (k - 1))
                     g += m * vec3(s(i - 1) * wj * wk, wi * s(j - 1) * wk, wi * wj * s(k - 1))
         return g
+
+    @wp.func
+    def symmetric(nrm: vec3, ijk: wp.vec3i, dims: wp.vec3i, bc_kind: wp.array(dtype=wp.int32)):
+        """``nrm`` without its component across a slip face (a symmetry plane) that the node lies on
+        (or beyond): the bodies' mirror images would give that component, so it is 0 by symmetry.
+        (The Sobel difference sees no mass on the far side of the face and would tilt the normal
+        by up to 45 deg at a body's edge on the plane: a quarter model's contact patch centre.)"""
+        out = nrm
+        for face in range(6):
+            if bc_kind[face] == BC_SLIP:
+                if on_face(ijk, face, dims):
+                    out[face // 2] = s(0.0)
+        return out
+
+    @wp.func
+    def touching(g_x: wp.array(dtype=vec4), ra: int, rb: int, x_node: vec3, nrm: vec3, inv_h: s, closing: s):
+        """Whether fields a (records ``ra``) and b touch at the node at ``x_node`` (relative to the
+        grid origin, as the position records) along ``nrm`` (from a into b), in cells: surfaces
+        c_a = surface(xi_a), c_b = -surface(-xi_b) (eq. (2)); the gap g = c_b - c_a closes within
+        the step (g <= ``closing``, the approach dt dvn / h) and the interface (c_a + c_b) / 2 lies
+        within ``BAND`` of the support's reach of the node (eq. (3))."""
+        xa = g_x[ra]
+        xb = g_x[rb]
+        c_a = surface(wp.dot(head(xa) / xa[3] - x_node, nrm) * inv_h)
+        c_b = -surface(-wp.dot(head(xb) / xb[3] - x_node, nrm) * inv_h)
+        reach = s(KERNEL_REACH) * (wp.abs(nrm[0]) + wp.abs(nrm[1]) + wp.abs(nrm[2]))  # a node's support along nrm
+        return c_b - c_a <= closing and wp.abs(c_a + c_b) <= s(2.0 * BAND) * reach
 
     @wp.func
     def take_impulse(
@@ -253,13 +428,16 @@ def contact_kernel(t: WarpTypes, mode: int, NF: int) -> Any:
         node0: int,
         g_mm: wp.array(dtype=vec4),
         g_c: wp.array(dtype=vec4),
+        g_x: wp.array(dtype=vec4),
         v_vel: wp.array(dtype=vec4),
         v_inc: wp.array(dtype=vec4),
         react: wp.array(dtype=vec4),
         law_kind: wp.array(dtype=wp.int32),
         law_mu: wp.array(dtype=s),
+        law_gap: wp.array(dtype=wp.int32),
         min_mass: s,
         inv_dt: s,
+        inv_h: s,
         r_lo: int,
         r_hi: int,
         dims: wp.vec3i,
@@ -275,9 +453,8 @@ def contact_kernel(t: WarpTypes, mode: int, NF: int) -> Any:
         if present < 2:
             return
         sx, sy = node_strides(dims)
-        ijk = wp.vec3i()
-        if n_bc > 0:
-            ijk = node_indices(n, dims)
+        ijk = node_indices(n, dims)
+        x_node = vec3(s(ijk[0]), s(ijk[1]), s(ijk[2])) / inv_h
         for a in range(NF):
             ra = n * NF + a
             ma_tot = g_mm[ra][3] + g_c[ra][3]
@@ -295,6 +472,8 @@ def contact_kernel(t: WarpTypes, mode: int, NF: int) -> Any:
                     nrm = nrm + mass_gradient(g_mm, g_c, n, b, sx, sy, r_lo, r_hi)
                 if not cb:
                     nrm = nrm - mass_gradient(g_mm, g_c, n, a, sx, sy, r_lo, r_hi)
+                if n_bc > 0:
+                    nrm = symmetric(nrm, ijk, dims, bc_kind)
                 ln = wp.length(nrm)
                 if ln <= s(0.0):
                     continue
@@ -305,6 +484,9 @@ def contact_kernel(t: WarpTypes, mode: int, NF: int) -> Any:
                 dvn = wp.dot(dv, nrm)
                 if dvn <= s(0.0):
                     continue
+                if law_gap[a * NF + b] != 0:
+                    if not touching(g_x, ra, rb, x_node, nrm, inv_h, dvn * inv_h / inv_dt):
+                        continue
                 ma = g_mm[ra][3]
                 mb = g_mm[rb][3]
                 mred = s(0.0)

@@ -13,7 +13,9 @@ class InstabilityError(RuntimeError):
     position
         Its position [m] (NumPy (3,)), or ``None``.
     reason
-        ``"nan"``, ``"J<=0"``, ``"left grid"``, ``"dt collapse"`` or ``"stress not finite"``.
+        ``"nan"``, ``"J<=0"``, ``"left grid"`` (with ``SolverConfig.outflow = "stop"``, or when the
+        last particles left), ``"eroded"`` (the last particles eroded), ``"dt collapse"`` or
+        ``"stress not finite"``.
     """
 
     def __init__(self, message: str, *, particle: int | None = None, position: Any = None, reason: str = ""):

@@ -20,6 +20,10 @@ lead of order rho_t v^2 / K = 5e-5 at 50 m/s.
 
 Restarts: V is the velocity of the body's particles, written back into ``State.v`` each step, so
 a checkpoint carries it and :meth:`FreeBodies.attach` reads it back.
+
+Removed particles (:mod:`tissuempm.mpm.removal`: a body leaving the grid through an open face):
+M becomes the mass of the particles left (:meth:`FreeBodies.attach` runs again after each
+removal); a body with none left is no longer advanced.
 """
 
 import functools
@@ -79,16 +83,17 @@ class FreeBodies:
 
     def attach(self, st: "State") -> None:
         """Masses of the free bodies and their velocities V (the momentum of their particles / M)
-        from a new or restarted state; the particles then all move with V."""
+        from a new, restarted or compacted state; the particles then all move with V. A body with
+        no particles (all removed) gets M = 0 and keeps its last V."""
         s = self.solver
         mat = st.material.numpy()
         mass = np.asarray(st.mass.numpy(), dtype=float)
         v = np.asarray(st.v.numpy(), dtype=float)
         for i in self.index:
             sel = mat == i
-            if not np.any(sel):
-                raise ValueError(f"free rigid material {i} has no particles")
             self.mass[i] = mass[sel].sum()
+            if not np.any(sel):
+                continue
             vb = v[sel]  # one velocity after a step (exact restarts); the momentum-weighted mean at the start
             s._rigid_velocity[i] = vb[0] if np.all(vb == vb[0]) else (mass[sel, None] * vb).sum(axis=0) / self.mass[i]
         s.rigid_vel.assign(s._rigid_velocity.astype(s.t.numpy))
@@ -108,6 +113,7 @@ class FreeBodies:
         R = np.asarray(self._sum.numpy(), dtype=float)
         g = np.array([s._gravity[0], s._gravity[1], s._gravity[2]], dtype=float)
         for i in self.index:
-            s._rigid_velocity[i] += dt * (R[i] / self.mass[i] + g)
+            if self.mass[i] > 0:
+                s._rigid_velocity[i] += dt * (R[i] / self.mass[i] + g)
         s.rigid_vel.assign(s._rigid_velocity.astype(s.t.numpy))
         self._write(st)

@@ -159,6 +159,9 @@ class ImplicitSolver(ExplicitSolver):
     >>> solver.run(state, t_end=0.1)                                                      # doctest: +SKIP
     """
 
+    default_anti_locking = "none"
+    """No F-bar in the implicit solver (its tangent would need the F-bar linearisation)."""
+
     def __init__(self, model: Model, config: SolverConfig | None = None, implicit: ImplicitConfig | None = None):
         super().__init__(model, config)
         if implicit is None:
@@ -169,6 +172,8 @@ class ImplicitSolver(ExplicitSolver):
             raise ValueError("grid = 'no_reset' is available with the explicit integrator only")
         if self.free is not None:
             raise ValueError("free rigid bodies (rigid materials with free = true) need the explicit integrator")
+        if self.volumetric is not None or self.config.bulk_viscosity:  # none by default (default_anti_locking)
+            raise ValueError("anti_locking = 'fbar' and the bulk viscosity are available with the explicit integrator only")
         self.implicit = implicit
         self.extra_fields = ("acc",)
         self.ik = implicit_kernels(self.t, self.config.shape)

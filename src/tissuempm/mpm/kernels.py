@@ -23,7 +23,7 @@ from typing import Any
 import warp as wp
 
 from tissuempm.mpm.model import GHOST
-from tissuempm.mpm.shape_functions import STENCIL, axis_weights, particle_domain
+from tissuempm.mpm.shape_functions import GIMP_SHAPES, STENCIL, axis_weights, particle_domain
 from tissuempm.precision import WarpTypes, kernel
 
 # scatter / reduce field flags
@@ -81,6 +81,16 @@ def node_strides(dims: wp.vec3i):
     """Flat-index strides ``(sx, sy)`` of the x and y node axes (z stride 1) of a grid of ``dims`` cells."""
     sy = dims[2] + 1 + 2 * GHOST
     return (dims[1] + 1 + 2 * GHOST) * sy, sy
+
+
+@wp.func
+def on_face(ijk: wp.vec3i, face: int, dims: wp.vec3i):
+    """Whether node ``ijk`` lies on (or beyond) grid face ``face`` = 2 axis + side of a grid of ``dims`` cells."""
+    a = face // 2
+    on = ijk[a] >= dims[a]
+    if face % 2 == 0:
+        on = ijk[a] <= 0
+    return on
 
 
 @wp.func
@@ -153,7 +163,89 @@ def _helpers(t: WarpTypes, shape: str, NF: int) -> SimpleNamespace:
             f = int(field[p])
         return f
 
-    return SimpleNamespace(stencil=stencil, field_of=field_of, NP=NP)
+    @wp.func
+    def extent(size: wp.array(dtype=vec3), F: wp.array(dtype=t.mat33), p: int, inv_h: s):
+        """Edge lengths [m] of particle ``p``'s box: its GIMP domain (``2 l h``), else ``size``."""
+        if wp.static(shape in GIMP_SHAPES):
+            return (s(2.0) / inv_h) * domain(size, F, p, inv_h)
+        return size[p]
+
+    @wp.func
+    def box_moments(x: s, e: s, w: vec3, d: vec3, inv_h: s):
+        """Per-axis first moments [m] of a particle box (centre ``x``, edge ``e`` [m]) under the
+        stencil's 1-D weights ``w`` and derivatives ``d`` [1/m]: ``w_k x + mu_k`` with ``mu_k`` the
+        moment ``int_box N_k (x' - x) dx' / e`` of the tent ``N_k`` of node k. With lambda = e / 2h
+        (cells) and r the distance from the node (cells), for the GIMP weights (exact)::
+
+            mu = (r / 2 lambda)(r^2 / 3 - lambda^2) h            |r| < lambda          (r = -lambda d h)
+               = (lambda^2 / 3) d h^2                           lambda <= |r| < 1 - lambda
+               = -sign(d) w (q / 3 - lambda) h,  q = 2 lambda |d| h   (the box cut by the support's edge)
+
+        (the three ranges have disjoint weights: w > 1 - lambda, lambda < w <= 1 - lambda, w <= lambda).
+        For the point weights of the other shapes, ``(e^2 / 12) d`` (the moment of a weight linear
+        over the box), limited to ``|mu| <= w e / 2`` (a box cut by the edge of the support has its
+        weight at its own edge)."""
+        out = vec3()
+        if wp.static(shape in GIMP_SHAPES):
+            h = s(1.0) / inv_h
+            lam = s(0.5) * e * inv_h
+            for k in range(NP):
+                dc = d[k] * h
+                mu = s(0.0)
+                if w[k] > s(1.0) - lam:
+                    r = -lam * dc
+                    mu = r / (s(2.0) * lam) * (r * r / s(3.0) - lam * lam)
+                elif w[k] > lam:
+                    mu = lam * lam / s(3.0) * dc
+                else:
+                    q = s(2.0) * lam * wp.abs(dc)
+                    mu = -wp.sign(dc) * w[k] * (q / s(3.0) - lam)
+                out[k] = w[k] * x + mu * h
+        else:
+            c = e * e / s(12.0)
+            for k in range(NP):
+                lim = s(0.5) * e * w[k]
+                out[k] = w[k] * x + wp.clamp(c * d[k], -lim, lim)
+        return out
+
+    @wp.func
+    def scatter_position(
+        b_x: wp.array(dtype=t.vec4),
+        nb: int,
+        sx: int,
+        sy: int,
+        wx: vec3,
+        wy: vec3,
+        wz: vec3,
+        dx: vec3,
+        dy: vec3,
+        dz: vec3,
+        xr: vec3,
+        m: s,
+        ext: vec3,
+        inv_h: s,
+    ):
+        """Position record of the contact gap (:mod:`tissuempm.mpm.contact`): node i of the stencil
+        receives ``(sum m_p X_ip, sum m_p S_ip)`` with X_ip the first moment of particle p's box
+        (position relative to the grid origin ``xr``, edges ``ext``, :func:`extent`) under the
+        node's weight, S_ip x_p plus the box's own moment, per axis (``box_moments``; the 3-D weight
+        is the product of the axes'): the moment of the box, not of its centre, so that the nodal
+        centre of mass sum m X / sum m S is that of the material the particles fill."""
+        px = box_moments(xr[0], ext[0], wx, dx, inv_h)
+        py = box_moments(xr[1], ext[1], wy, dy, inv_h)
+        pz = box_moments(xr[2], ext[2], wz, dz, inv_h)
+        for i in range(NP):
+            for j in range(NP):
+                wij = m * wx[i] * wy[j]
+                xa = t.vec4(m * px[i] * wy[j], m * wx[i] * py[j], s(0.0), wij)
+                xb = t.vec4(s(0.0), s(0.0), wij, s(0.0))
+                for k in range(NP):
+                    b_x[nb + i * sx + j * sy + k * NF] += wz[k] * xa + pz[k] * xb
+
+    return SimpleNamespace(
+        stencil=stencil, field_of=field_of, extent=extent, box_moments=box_moments, scatter_position=scatter_position,
+        NP=NP,
+    )  # fmt: skip
 
 
 @functools.cache
@@ -178,7 +270,9 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
     s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
     h = _helpers(t, shape, NF)
     stencil, field_of, NP = h.stencil, h.field_of, h.NP
+    extent, scatter_position = h.extent, h.scatter_position
     pack = vec4_helpers(t).pack
+    POS = NF > 1 and (flags & MASS) != 0  # the contact gap's position record
 
     @transfer_kernel
     def p2g(
@@ -206,10 +300,13 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
         b_mm: wp.array(dtype=vec4),
         b_f: wp.array(dtype=vec4),
         b_c: wp.array(dtype=vec4),
+        b_x: wp.array(dtype=vec4),
     ):
         """Particle to grid, into 4-vector node records (one SIMD register each):
         MASS: (m v, m)_i = sum S m_p (v_p, 1) in ``b_mm``, and the constraint record (m v_c, m)_i of
-        rigid (v_c their material's velocity) and fixed (v_c = 0) particles in ``b_c``;
+        rigid (v_c their material's velocity) and fixed (v_c = 0) particles in ``b_c``; with several
+        velocity fields also every particle's position record in ``b_x`` (``scatter_position``:
+        the nodal centres of mass of the contact gap, :mod:`tissuempm.mpm.contact`);
         FORCE: (f, 0)_i = -sum V_p sigma_p grad S + sum S m_p b_p in ``b_f``.
 
         Each particle scatters into its own velocity field's records (``field``).
@@ -226,6 +323,9 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
                 wp.atomic_min(lo, c, nb)
                 wp.atomic_max(hi, c, nb + (NP - 1) * (sx + sy + NF))
         m = mass[p]
+        if wp.static(POS):
+            xr = x[p] - origin
+            scatter_position(b_x, nb, sx, sy, wx, wy, wz, dx, dy, dz, xr, m, extent(size, F, p, inv_h), inv_h)
         if mat_rigid[mat] != 0:
             if wp.static(flags & MASS):
                 mvr = pack(m * rigid_vel[mat], m)
@@ -288,12 +388,7 @@ def boundary_function(t: WarpTypes) -> Any:
             kind = kinds[face]
             if kind != BC_NONE:
                 a = face // 2
-                on = False
-                if face % 2 == 0:
-                    on = ijk[a] <= 0
-                else:
-                    on = ijk[a] >= dims[a]
-                if on:
+                if on_face(ijk, face, dims):
                     if kind == BC_FIXED:
                         out = vec3()
                     elif kind == BC_VELOCITY:
@@ -311,6 +406,7 @@ def _grid(t: WarpTypes, flags: int, mode: int, NF: int) -> Any:
     v4 = vec4_helpers(t)
     pack, head = v4.pack, v4.head
     apply_bc = boundary_function(t)
+    POS = NF > 1 and (flags & MASS) != 0  # reduce the contact gap's position records
 
     @transfer_kernel
     def grid(
@@ -334,11 +430,14 @@ def _grid(t: WarpTypes, flags: int, mode: int, NF: int) -> Any:
         n_bc: int,
         bc_kind: wp.array(dtype=wp.int32),
         bc_vel: wp.array(dtype=vec3),
+        b_x: wp.array2d(dtype=vec4),
+        g_x: wp.array(dtype=vec4),
     ):
         """Reduce the chunk buffers in chunk order and zero what was read (so the buffers are clean
         for the next scatter without a clearing pass), then solve the node.
 
-        Flags: MASS reduces the (m v, m) and constraint records, MOMENTUM the (m v, m) records only
+        Flags: MASS reduces the (m v, m) and constraint records (and, with several velocity fields,
+        the position records ``b_x`` into ``g_x`` for the contact gap), MOMENTUM the (m v, m) records only
         (MUSL's re-projection), FORCE the force; the reduced records are kept in ``g_mm`` and ``g_c``
         for a later pass that does not reduce them (USF's force-only UPDATE pass).
 
@@ -369,6 +468,13 @@ def _grid(t: WarpTypes, flags: int, mode: int, NF: int) -> Any:
             g_c[n] = cr
         else:
             cr = g_c[n]
+        if wp.static(POS):
+            xr = vec4()
+            for c in range(n_chunks):
+                if n >= lo[c * SLOT] and n <= hi[c * SLOT]:
+                    xr += b_x[c, n]
+                    b_x[c, n] = vec4()
+            g_x[n] = xr
         f = vec3()
         if wp.static(flags & FORCE):
             f4 = vec4()
@@ -670,22 +776,30 @@ def gather_kernel(dtype: Any, rows: bool = False) -> Any:
 
 
 @functools.cache
-def material_kernels(cls: type, t: WarpTypes) -> SimpleNamespace:
+def material_kernels(cls: type, t: WarpTypes, bulk_viscosity: bool = False) -> SimpleNamespace:
     """Stress-update and signal-speed kernels of one law (``cls``) for types ``t``.
 
     Each kernel skips particles whose material index differs from ``mat_id``, so
-    several laws share one velocity field.
+    several laws share one velocity field. With ``bulk_viscosity`` the stress kernel adds the
+    artificial bulk viscosity of :mod:`tissuempm.mpm.config` (``bulk_viscosity_linear`` and
+    ``_quadratic``) in compression.
     """
     s, vec3, mat33 = t.scalar, t.vec3, t.mat33
     stress_fn = cls.stress_function(t.precision)
     moduli_fn = cls.moduli_function(t.precision)
+    BV = bulk_viscosity
+
+    @wp.func
+    def wave_speed(Fp: mat33, a0: vec3, prm: wp.array(dtype=s), hist: wp.array2d(dtype=s), p: int):
+        """c = sqrt((K + 4G/3) / rho), rho = rho0 / J (Ionescu et al. 2006 eq. 9)."""
+        K, Gm = moduli_fn(Fp, a0, prm, hist, p)
+        c2 = (K + s(4.0) / s(3.0) * Gm) * wp.determinant(Fp) / prm[0]
+        return wp.sqrt(wp.max(c2, s(0.0)))
 
     @wp.func
     def signal_speed(Fp: mat33, a0: vec3, prm: wp.array(dtype=s), hist: wp.array2d(dtype=s), p: int, vp: vec3):
-        """c + |v| with c = sqrt((K + 4G/3) / rho), rho = rho0 / J (Ionescu et al. 2006 eq. 9)."""
-        K, Gm = moduli_fn(Fp, a0, prm, hist, p)
-        c2 = (K + s(4.0) / s(3.0) * Gm) * wp.determinant(Fp) / prm[0]
-        return wp.sqrt(wp.max(c2, s(0.0))) + wp.length(vp)
+        """c + |v| (see ``wave_speed``)."""
+        return wave_speed(Fp, a0, prm, hist, p) + wp.length(vp)
 
     @kernel
     def stress(
@@ -706,9 +820,22 @@ def material_kernels(cls: type, t: WarpTypes) -> SimpleNamespace:
         c: int,
         bad: wp.array(dtype=int),
         speed: wp.array(dtype=s),
+        h: s,
+        c_lin: s,
+        c_quad: s,
+        bulk_q: wp.array(dtype=s),
+        bulk_work: wp.array(dtype=s),
     ):
-        """sigma_p = law(F, L, a0, history); internal work += V (sigma_old + sigma_new)/2 : D dt;
-        the signal speed of the new state (the next step's CFL bound when v is already the new one)."""
+        """sigma_p = law(F, L, a0, history); internal work += V (sigma_old + sigma_new)/2 : D dt of
+        the law's stress; the signal speed of the new state (the next step's CFL bound when v is
+        already the new one).
+
+        Bulk viscosity (``bulk_viscosity``; von Neumann & Richtmyer 1950, Wilkins 1980, as in
+        LS-DYNA's ``*CONTROL_BULK_VISCOSITY``): with tr D < 0 the particle carries the extra
+        pressure q = rho h (C_Q h (tr D)^2 - C_L c tr D) (0 otherwise), sigma = sigma_law - q I;
+        the energy it dissipates, V (q_old + q)/2 (-tr D) dt, goes to ``bulk_work`` (not to
+        ``work``), and the signal speed becomes Q + sqrt(Q^2 + c^2) + |v| with
+        Q = C_L c + C_Q h |tr D| (LS-DYNA's time-step bound with bulk viscosity)."""
         p = begin + wp.tid()
         if material[p] != mat_id:
             return
@@ -717,11 +844,29 @@ def material_kernels(cls: type, t: WarpTypes) -> SimpleNamespace:
         a0 = fiber[p]
         sig = stress_fn(Fp, Lp, a0, prm, s_in, s_out, p, dt)
         D = s(0.5) * (Lp + wp.transpose(Lp))
-        work[p] = work[p] + s(0.5) * wp.ddot(sigma[p] + sig, D) * vol0[p] * wp.determinant(Fp) * dt
-        sigma[p] = sig
+        J = wp.determinant(Fp)
+        sig_old = sigma[p]
+        if wp.static(BV):
+            sig_old = sig_old + bulk_q[p] * wp.identity(n=3, dtype=s)
+        work[p] = work[p] + s(0.5) * wp.ddot(sig_old + sig, D) * vol0[p] * J * dt
+        if wp.static(BV):
+            cw = wave_speed(Fp, a0, prm, s_out, p)
+            trD = wp.trace(Lp)
+            q = s(0.0)
+            Q = s(0.0)
+            if trD < s(0.0):
+                q = prm[0] / J * h * (c_quad * h * trD * trD - c_lin * cw * trD)
+                Q = c_lin * cw - c_quad * h * trD
+            bulk_work[p] = bulk_work[p] - s(0.5) * (bulk_q[p] + q) * trD * vol0[p] * J * dt
+            bulk_q[p] = q
+            sig = sig - q * wp.identity(n=3, dtype=s)
+            sigma[p] = sig
+            wp.atomic_max(speed, c, Q + wp.sqrt(Q * Q + cw * cw) + wp.length(v[p]))
+        else:
+            sigma[p] = sig
+            wp.atomic_max(speed, c, signal_speed(Fp, a0, prm, s_out, p, v[p]))
         if not wp.isfinite(wp.ddot(sig, sig)):
             wp.atomic_min(bad, c, p)
-        wp.atomic_max(speed, c, signal_speed(Fp, a0, prm, s_out, p, v[p]))
 
     @kernel
     def speed(

@@ -33,7 +33,7 @@ run with one chunk and atomic adds.
 
 import math
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any, Callable
+from typing import Any, Callable, NoReturn
 
 import numpy as np
 import warp as wp
@@ -47,8 +47,10 @@ from tissuempm.mpm.free_bodies import FreeBodies
 from tissuempm.mpm.launch import Launcher
 from tissuempm.mpm.model import Model, ParticleData, RigidMaterial
 from tissuempm.mpm.reference_grid import ReferenceGrid, check_no_reset
+from tissuempm.mpm.removal import KEEP, OUTFLOW, UNSTABLE, classify_kernel, erosion_slots, removed_totals
 from tissuempm.mpm.shape_functions import GIMP_SHAPES
-from tissuempm.mpm.state import OPTIONAL_FIELDS, PARTICLE_FIELDS, State, warp_array
+from tissuempm.mpm.state import OPTIONAL_FIELDS, PARTICLE_FIELDS, REMOVAL_COLUMNS, REMOVAL_REASONS, State, warp_array
+from tissuempm.mpm.volumetric import CellAverage
 from tissuempm.precision import cuda_driver_present, init_warp, warp_types
 
 MIN_CHUNK = 4096
@@ -66,6 +68,11 @@ class ExplicitSolver:
     >>> state = solver.initial_state(particles)                      # doctest: +SKIP
     >>> solver.run(state, t_end=1e-3)                                # doctest: +SKIP
     """
+
+    default_anti_locking = "fbar"
+    """Volumetric treatment when ``SolverConfig.anti_locking`` is None: F-bar removes the locking of
+    nearly incompressible laws (a plane-strain cantilever at K/G = 10 is 19 % too stiff without it)
+    for about a tenth more per step (docs/mpm.md)."""
 
     def __init__(self, model: Model, config: SolverConfig | None = None):
         init_warp()
@@ -86,6 +93,8 @@ class ExplicitSolver:
             check_no_reset(cfg.shape, self.n_fields)
             self.reference = ReferenceGrid(self.t, self.device, model.grid.cell_size, cfg.reset_distance, cfg.reset_interval)
             self.extra_fields = ("xref", "Fref")
+        if cfg.bulk_viscosity:
+            self.extra_fields += ("bulk_q", "bulk_work")
         self.kern = K.transfer_kernels(self.t, cfg.shape, self.n_fields)
         grid = model.grid
         self.h = grid.cell_size
@@ -95,15 +104,16 @@ class ExplicitSolver:
         self.upper = self.t.vec3(*grid.upper)
         self.n_nodes = grid.n_nodes * self.n_fields  # nodal records: one per node and velocity field
         if model.contact is not None:
-            kind, mu = model.contact.tables()
+            kind, mu, gap = model.contact.tables()
             self.law_kind = wp.array(kind, dtype=wp.int32, device=self.device)
             self.law_mu = wp.array(mu.astype(self.t.numpy), dtype=self.t.scalar, device=self.device)
+            self.law_gap = wp.array(gap, dtype=wp.int32, device=self.device)
         # materials
         n_mat = len(model.materials)
         self.laws: list[tuple[int, Material, Any, wp.array]] = []
         for i, m in enumerate(model.materials):
             if isinstance(m, Material):
-                mk = K.material_kernels(type(m), self.t)
+                mk = K.material_kernels(type(m), self.t, cfg.bulk_viscosity)
                 prm = self._parameters(m)
                 self.laws.append((i, m, mk, prm))
         self.mat_rigid = wp.array(
@@ -116,6 +126,11 @@ class ExplicitSolver:
                 self._rigid_velocity[i] = m.velocity
         self.rigid_vel = warp_array(self._rigid_velocity, "vec3", self.t, self.device)
         self.free = FreeBodies(self) if any(model.is_free(i) for i in range(n_mat)) else None
+        slots = erosion_slots(model.materials)  # failure column of each eroding law (mpm.removal)
+        self._erodes = bool(np.any(slots >= 0))
+        self.erode_slot = wp.array(slots, dtype=wp.int32, device=self.device)
+        self.anti_locking = cfg.anti_locking or self.default_anti_locking
+        self.volumetric = CellAverage(self) if self.anti_locking == "fbar" else None
         # grid faces
         kinds = np.zeros(6, dtype=np.int32)
         self._bc_velocity = np.zeros((6, 3))
@@ -141,6 +156,8 @@ class ExplicitSolver:
         z = lambda dt: wp.zeros(self.n_nodes, dtype=dt, device=self.device)  # noqa: E731
         v4 = self.t.vec4  # nodal records (vector, scalar): (m v, m), (v, 0), ...
         self.g_mm, self.g_c = z(v4), z(v4)
+        # position records of the contact gap (tissuempm.mpm.contact; a placeholder with one field)
+        self.g_x = z(v4) if self.n_fields > 1 else wp.zeros(1, dtype=v4, device=self.device)
         self.g_vinc, self.g_vnew, self.g_vgrad, self.g_react = z(v4), z(v4), z(v4), z(v4)
         self._n_buf = 0
         self._dirty = False  # chunk buffers hold data of an interrupted step
@@ -180,13 +197,16 @@ class ExplicitSolver:
         shape = (n_chunks, self.n_nodes)
         z = lambda: wp.zeros(shape, dtype=self.t.vec4, device=self.device)  # noqa: E731
         self.b_mm, self.b_f, self.b_c = z(), z(), z()  # (m v, m), (f, 0), constraint (m v_c, m)
+        # position records (m x, m) of the contact gap; one placeholder entry per chunk with one field
+        self.b_x = z() if self.n_fields > 1 else wp.zeros((n_chunks, 1), dtype=self.t.vec4, device=self.device)
         self._n_buf = n_chunks
         # per-chunk 1-D row views (kernels index them with the flat node index only)
-        self._rows = [[b[c] for b in self._buffers()] for c in range(n_chunks)]
+        self._rows = [[b[c] for b in (self.b_mm, self.b_f, self.b_c, self.b_x)] for c in range(n_chunks)]
 
     def _buffers(self) -> tuple[wp.array, ...]:
-        """The chunk buffers: (m v, m), force and constraint records."""
-        return self.b_mm, self.b_f, self.b_c
+        """The chunk buffers: (m v, m), force and constraint records, and with several velocity
+        fields the position records of the contact gap."""
+        return (self.b_mm, self.b_f, self.b_c) + ((self.b_x,) if self.n_fields > 1 else ())
 
     def _chunks(self, n: int) -> list[tuple[int, int]]:
         if not self.is_cpu:
@@ -235,11 +255,12 @@ class ExplicitSolver:
 
     def _allocate_state(self, arrays: dict[str, np.ndarray]) -> State:
         st = State()
-        defaults = {"xref": "x", "Fref": "F"}  # a grid reset now; acceleration 0
+        defaults = {"xref": "x", "Fref": "F"}  # a grid reset now; acceleration and bulk viscosity 0
         for name in self.extra_fields:
             if name not in arrays:
                 src = defaults.get(name)
-                arrays[name] = np.array(arrays[src]) if src else np.zeros_like(np.asarray(arrays["v"], dtype=float))
+                n = len(arrays["v"])
+                arrays[name] = np.array(arrays[src]) if src else np.zeros((n, *OPTIONAL_FIELDS[name][1]))
         st.extra = self.extra_fields
         for name in st.fields:
             kind = PARTICLE_FIELDS[name][0] if name in PARTICLE_FIELDS else OPTIONAL_FIELDS[name][0]
@@ -250,13 +271,21 @@ class ExplicitSolver:
         st.history = warp_array(hist, "2d", self.t, self.device)
         st.history_next = warp_array(hist, "2d", self.t, self.device)
         st.materials = self.model.materials
+        self._layout(st, arrays["material"], arrays["fixed"], arrays["mass"])
+        return st
+
+    def _layout(self, st: State, material: np.ndarray, fixed: np.ndarray, mass: np.ndarray) -> None:
+        """What depends on the particle count and set (a new state, or after :meth:`remove`):
+        chunks, chunk buffers, per-chunk slots, the constraint flag, the empty-node mass threshold
+        (from ``material``, ``fixed`` and ``mass``, storage order) and the free bodies' masses."""
         st.chunks = self._chunks(st.n)
         self._ensure_buffers(len(st.chunks))
         rigid = np.array([self.model.is_rigid(i) for i in range(len(self.model.materials))])
-        deform = ~rigid[np.asarray(arrays["material"])]
-        st.constrained = bool(np.any(~deform) or np.any(np.asarray(arrays["fixed"]) != 0))
-        m = np.asarray(arrays["mass"], dtype=float)
+        deform = ~rigid[np.asarray(material)]
+        st.constrained = bool(np.any(~deform) or np.any(np.asarray(fixed) != 0))
+        m = np.asarray(mass, dtype=float)
         st.min_node_mass = self.config.min_node_mass_fraction * (float(m[deform].min()) if deform.any() else 1.0)
+        st.code = wp.zeros(st.n, dtype=wp.int32, device=self.device)  # removal codes (mpm.removal)
         # one slot per chunk, K.SLOT elements apart: chunks run in parallel threads and update
         # their slot once per particle, so adjacent slots would share a cache line
         slots = len(st.chunks) * K.SLOT
@@ -264,11 +293,11 @@ class ExplicitSolver:
         st.hi = wp.zeros(slots, dtype=int, device=self.device)
         st.bad = wp.full(slots, st.n, dtype=int, device=self.device)
         st.speed = wp.zeros(slots, dtype=self.t.scalar, device=self.device)
+        st.drop = wp.zeros(slots, dtype=int, device=self.device)
         # host views of the per-chunk arrays (read and reset every step: a view costs nothing on the CPU)
-        st.host = {k: getattr(st, k).numpy() for k in ("lo", "hi", "bad", "speed")} if self.is_cpu else None
+        st.host = {k: getattr(st, k).numpy() for k in ("lo", "hi", "bad", "speed", "drop")} if self.is_cpu else None
         if self.free is not None:
             self.free.attach(st)
-        return st
 
     # ------------------------------------------------------------------------------ helpers
     @staticmethod
@@ -445,7 +474,7 @@ class ExplicitSolver:
             self.b_mm, self.b_f, self.b_c, self.g_mm, self.g_c,
             self.g_vgrad if mode == K.VELOCITY else self.g_vinc, self.g_vnew, self.g_react,
             s(dt), self._gravity, s(self.config.damping), s(st.min_node_mass), self.dims,
-            len(self._bc_face), self.bc_kind, self.bc_vel,
+            len(self._bc_face), self.bc_kind, self.bc_vel, self.b_x, self.g_x,
         ]  # fmt: skip
         self._split(start, stop, lambda a, b: self._launch(kernel, b - a, [a, *args], a))
         if self.n_fields > 1:
@@ -457,11 +486,12 @@ class ExplicitSolver:
         reactions after an UPDATE pass, the constrained velocity after a VELOCITY pass."""
         nf = self.n_fields
         s = self.t.scalar
-        kernel = self._ready(contact_kernel(self.t, mode, nf))
+        kernel = self._ready(contact_kernel(self.t, mode, nf, self.config.shape))
         v_vel = self.g_vgrad if mode == K.VELOCITY else self.g_vnew
         args = [
-            self.g_mm, self.g_c, v_vel, self.g_vinc, self.g_react, self.law_kind, self.law_mu,
-            s(st.min_node_mass), s(1.0 / dt), start, stop, self.dims, len(self._bc_face), self.bc_kind, self.bc_vel,
+            self.g_mm, self.g_c, self.g_x, v_vel, self.g_vinc, self.g_react, self.law_kind, self.law_mu, self.law_gap,
+            s(st.min_node_mass), s(1.0 / dt), s(1.0 / self.h), start, stop, self.dims, len(self._bc_face),
+            self.bc_kind, self.bc_vel,
         ]  # fmt: skip
         self._split(start // nf, (stop - 1) // nf + 1, lambda a, b: self._launch(kernel, b - a, [a, *args], ("contact", a)))
 
@@ -532,8 +562,10 @@ class ExplicitSolver:
         out = [kern.p2g(f) for f, _ in grids if f & (K.MASS | K.FORCE)] + [kern.grid(f, m) for f, m in grids]
         out += [kern.g2p(f) for flags, shared in gathers for f in self._gather_passes(flags, shared)]
         if self.n_fields > 1:
-            out += [contact_kernel(self.t, mode, self.n_fields) for mode in sorted({m for _, m in grids})]
+            modes = sorted({m for _, m in grids})
+            out += [contact_kernel(self.t, mode, self.n_fields, self.config.shape) for mode in modes]
         out += [kern.reaction, kern.rigid_speed] + [k for _, _, mk, _ in self.laws for k in (mk.stress, mk.speed)]
+        out += self.volumetric.kernels() if self.volumetric is not None else []
         return out + ([self.free.kern.sum_reactions, self.free.kern.set_velocity] if self.free is not None else [])
 
     def load_kernels(self, report: Callable[[int, int], None] | None = None) -> None:
@@ -549,8 +581,14 @@ class ExplicitSolver:
 
     def _gather_and_stress(self, st: State, gather: list[Callable[[], None]], dt: float) -> None:
         """One parallel section: each chunk's ``gather`` tasks, then its stress update; the history
-        buffers are swapped after it."""
-        self._per_chunk(gather, self._constitutive(st, dt))
+        buffers are swapped after it. With F-bar (:mod:`tissuempm.mpm.volumetric`) the cell averages
+        of the volume change need every chunk's gather: two sections, the cell sums between them."""
+        if self.volumetric is None:
+            self._per_chunk(gather, self._constitutive(st, dt))
+        else:
+            self._per_chunk(gather)
+            self.volumetric.average(st, dt)
+            self._per_chunk(self.volumetric.tasks(st, dt), self._constitutive(st, dt))
         st.history, st.history_next = st.history_next, st.history
 
     def _constitutive(self, st: State, dt: float) -> list[Callable[[], None]]:
@@ -558,6 +596,9 @@ class ExplicitSolver:
         (``speed`` is zeroed here); :meth:`_gather_and_stress` runs them and swaps the history."""
         s = self.t.scalar
         self._fill(st, "speed", 0)
+        cfg = self.config
+        bulk = [s(self.h), s(cfg.bulk_viscosity_linear), s(cfg.bulk_viscosity_quadratic)]
+        bulk += [st.bulk_q, st.bulk_work] if cfg.bulk_viscosity else [st.work, st.work]  # placeholders when off
 
         def task(c: int, b: int, e: int) -> Callable[[], None]:
             def run() -> None:
@@ -566,7 +607,7 @@ class ExplicitSolver:
                         mk.stress,
                         e - b,
                         [i, prm, st.F, st.L, st.fiber, st.history, st.history_next, st.material, st.stress,
-                         st.volume0, st.work, st.v, s(dt), b, c * K.SLOT, st.bad, st.speed],
+                         st.volume0, st.work, st.v, s(dt), b, c * K.SLOT, st.bad, st.speed, *bulk],
                         c,
                     )  # fmt: skip
                 self._rigid_speed(st, c, b, e)
@@ -576,9 +617,74 @@ class ExplicitSolver:
         return [task(c, b, e) for c, (b, e) in enumerate(st.chunks)]
 
     def _check(self, st: State) -> None:
+        """After a step's stress pass: stop on an instability (NaN, J <= 0 with stress, a particle
+        outside the grid with ``outflow = "stop"``), remove the particles that left the grid
+        (``outflow = "remove"``) or eroded (:mod:`tissuempm.mpm.removal`)."""
         bad = int(self._slots(st, "bad").min())
-        if bad >= st.n:
+        flagged = bad < st.n
+        if not flagged and not self._erodes:
             return
+        if flagged and self.config.outflow == "stop" and not self._erodes:
+            self._unstable(st, bad)
+        code = self._classify(st, flagged)
+        if flagged:
+            if code is None or code[bad] in (KEEP, UNSTABLE):  # stopped as before, on the first one flagged
+                self._unstable(st, bad)
+            stops = (UNSTABLE, OUTFLOW) if self.config.outflow == "stop" else (UNSTABLE,)
+            first = np.flatnonzero(np.isin(code, stops))
+            if first.size:
+                self._unstable(st, int(first[0]))
+        if code is not None:
+            self.remove(st, code)
+
+    def _classify(self, st: State, full: bool) -> np.ndarray | None:
+        """Removal codes (:mod:`tissuempm.mpm.removal`) of every particle, storage order (a view
+        on the CPU), or None when every one is ``KEEP``; ``full``: test outflow and stability too,
+        not only erosion."""
+        kern = self._ready(classify_kernel(self.t))
+        self._fill(st, "drop", 0)
+        args = [st.x, st.v, st.F, st.stress, st.material, self.mat_rigid, st.history, self.erode_slot, self.lower,
+                self.upper, int(full)]  # fmt: skip
+
+        def task(c: int, b: int, e: int) -> Callable[[], None]:
+            return lambda: self._launch(kern, e - b, [*args, b, c * K.SLOT, st.code, st.drop], c)
+
+        self._per_chunk([task(c, b, e) for c, (b, e) in enumerate(st.chunks)])
+        if int(self._slots(st, "drop").sum()) == 0:
+            return None
+        return st.code.numpy()
+
+    def remove(self, state: State, code: np.ndarray) -> None:
+        """Take the particles whose ``code`` (storage order; :mod:`tissuempm.mpm.removal`: ``OUTFLOW``
+        or ``ERODED``, ``KEEP`` for the others) says so out of ``state``, accounting for what they
+        carry in ``state.removed`` (per reason) and ``state.removed_rigid``, and rebuild the chunks,
+        buffers and free-body masses. Raises :class:`InstabilityError` when none would be left."""
+        st = state
+        code = np.array(code, dtype=np.int32)
+        drop = (code != KEEP) & (code != UNSTABLE)
+        if not drop.any():
+            return
+        if drop.all():
+            p = int(np.flatnonzero(code == OUTFLOW)[0]) if np.any(code == OUTFLOW) else 0
+            why = "left grid" if np.any(code == OUTFLOW) else "eroded"
+            x = st.x.numpy()[p].astype(float)
+            pid = int(st.id.numpy()[p])
+            raise InstabilityError(f"no particle left at step {st.step} (t = {st.time:.6g} s): the last {st.n} "
+                                   f"were removed ({why}; particle {pid} at {x.tolist()})",
+                                   particle=pid, position=x, reason=why)  # fmt: skip
+        material = st.material.numpy()
+        rigid = self.mat_rigid.numpy().astype(bool)[material]
+        totals, n_rigid = removed_totals(code, st.mass.numpy(), st.v.numpy(), rigid)
+        st.removed += totals
+        st.removed_rigid += n_rigid
+        keep = ~drop
+        kept = material[keep], st.fixed.numpy()[keep], st.mass.numpy()[keep]
+        st.remove(drop)
+        self._layout(st, *kept)
+        self._per_chunk(self._speed_tasks(st))  # the new per-chunk speed slots are empty
+
+    def _unstable(self, st: State, bad: int) -> NoReturn:
+        """Raise :class:`InstabilityError` for the particle at storage position ``bad``, naming why."""
         x = st.x.numpy()[bad].astype(float)
         F = st.F.numpy()[bad].astype(float)
         vals = [x, st.v.numpy()[bad], F, st.stress.numpy()[bad]]
@@ -685,12 +791,17 @@ class ExplicitSolver:
             ``time`` [s], ``step``, ``mass`` [kg] (deformable particles), ``grid_mass`` [kg]
             (nodal mass of the last P2G; equals ``mass`` by partition of unity), ``momentum``
             [kg m/s] (3,), ``kinetic_energy`` [J], ``internal_work`` [J] (integral of
-            V sigma : D dt: the strain energy for elastic laws), ``strain_energy`` [J] (sum of
+            V sigma : D dt: the strain energy for elastic laws), ``bulk_viscosity_work`` [J] (the
+            energy dissipated by the artificial bulk viscosity, 0 without it), ``strain_energy`` [J] (sum of
             V0 W(F) when every law has a strain energy and n <= 20000, else None),
             ``reaction`` {material index: force [N] (3,)} on each rigid material and
             ``fixed_reaction`` [N] (3,) on the fixed particles: the force the rest of the model
             exerts on them; ``inverted``: particles with J <= 0, which only completely failed,
-            stress-free particles may reach (any other stops the run).
+            stress-free particles may reach (any other stops the run); ``particles``: how many
+            are left; ``removed`` {reason: {``count``, ``mass`` [kg], ``momentum`` [kg m/s] (3,),
+            ``kinetic_energy`` [J]}}: the deformable particles taken out so far per reason
+            (``"outflow"``, ``"eroded"``; :mod:`tissuempm.mpm.removal`), so ``mass`` + removed mass
+            is the initial mass; ``removed_rigid``: rigid-body particles taken out.
         """
         st = state
         mat = st.material.numpy()
@@ -708,10 +819,14 @@ class ExplicitSolver:
             "momentum": (md[:, None] * v).sum(axis=0),
             "kinetic_energy": float(0.5 * (md * (v * v).sum(axis=1)).sum()),
             "internal_work": float(st.work.numpy()[~rigid].sum()),
+            "bulk_viscosity_work": float(st.bulk_work.numpy().sum()) if self.config.bulk_viscosity else 0.0,
             "strain_energy": None,
             "reaction": {i: R[mat == i].sum(axis=0) for i in range(len(self.model.materials)) if self.model.is_rigid(i)},
             "fixed_reaction": R[fixed & ~rigid].sum(axis=0),
             "inverted": int(np.sum(~rigid & ~(np.linalg.det(st.F.numpy().astype(float)) > 0))),
+            "particles": st.n,
+            "removed": removed_summary(st.removed),
+            "removed_rigid": int(st.removed_rigid),
         }
         laws = [m for m in self.model.materials if isinstance(m, Material)]
         if st.n <= 20000 and laws and all(m.has_strain_energy for m in laws):
@@ -743,3 +858,13 @@ class ExplicitSolver:
         except Exception:
             pass
 
+
+def removed_summary(removed: np.ndarray) -> dict[str, dict[str, Any]]:
+    """``State.removed`` as {reason: {``count``, ``mass``, ``momentum`` (3,), ``kinetic_energy``}}."""
+    out: dict[str, dict[str, Any]] = {}
+    for reason, row in zip(REMOVAL_REASONS, np.asarray(removed, dtype=float)):
+        col = dict(zip(REMOVAL_COLUMNS, row))
+        out[reason] = {"count": int(col["count"]), "mass": float(col["mass"]),
+                       "momentum": np.array([col["momentum_x"], col["momentum_y"], col["momentum_z"]]),
+                       "kinetic_energy": float(col["kinetic_energy"])}  # fmt: skip
+    return out

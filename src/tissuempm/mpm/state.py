@@ -46,12 +46,23 @@ OPTIONAL_FIELDS: dict[str, tuple[str, tuple[int, ...]]] = {
     "xref": ("vec3", (3,)),
     "Fref": ("mat33", (3, 3)),
     "acc": ("vec3", (3,)),
+    "bulk_q": ("scalar", ()),
+    "bulk_work": ("scalar", ()),
 }
 """Particle arrays that only some solvers carry (allocated when the solver lists them in
 ``extra_fields``): ``xref`` and ``Fref``, the positions [m] and deformation gradient at the last
 grid reset of a grid that is not reset every step (:mod:`tissuempm.mpm.reference_grid`), and
 ``acc``, the particle acceleration [m/s^2] of the implicit Newmark integrator
-(:mod:`tissuempm.mpm.implicit`). They travel through sorting, :meth:`State.to_numpy` and restarts."""
+(:mod:`tissuempm.mpm.implicit`), and ``bulk_q`` and ``bulk_work``, the artificial bulk viscosity's
+pressure [Pa] of the last step and the energy it has dissipated [J] (:class:`~tissuempm.mpm.config.SolverConfig`).
+They travel through sorting, :meth:`State.to_numpy` and restarts."""
+REMOVAL_REASONS: tuple[str, ...] = ("outflow", "eroded")
+"""Why particles are taken out of a run (:meth:`State.remove`): ``"outflow"``, they left the grid
+through a face without a wall (``SolverConfig.outflow = "remove"``); ``"eroded"``, their law
+erodes failed particles and they failed (:mod:`tissuempm.mpm.removal`)."""
+REMOVAL_COLUMNS: tuple[str, ...] = ("count", "mass", "momentum_x", "momentum_y", "momentum_z", "kinetic_energy")
+"""Columns of :attr:`State.removed`: what the removed deformable particles took with them
+(count, mass [kg], momentum [kg m/s], kinetic energy [J], from their velocity at removal)."""
 
 
 class State:
@@ -89,6 +100,14 @@ class State:
         Step count at which the per-chunk ``speed`` maxima hold the signal speeds of the current
         particle data (the USL and MUSL stress pass computes them for the next step's CFL bound).
         Set it to None after changing ``v``, ``F`` or ``history`` by hand between steps.
+    removed : np.ndarray
+        (len(REMOVAL_REASONS), len(REMOVAL_COLUMNS)) float64: the deformable particles removed so
+        far, per reason (:data:`REMOVAL_REASONS`), and what they carried (:data:`REMOVAL_COLUMNS`).
+        With it the balances close: mass + removed mass = initial mass, and without external
+        forces momentum + removed momentum is constant.
+    removed_rigid : int
+        Rigid-body particles removed (they left the grid); a free body's mass is that of the
+        particles it has left.
     """
 
     def __init__(self) -> None:
@@ -101,6 +120,8 @@ class State:
         self.speed_step: int | None = None
         self.host: dict[str, np.ndarray] | None = None
         self.extra: tuple[str, ...] = ()  # names of the OPTIONAL_FIELDS this state carries
+        self.removed = np.zeros((len(REMOVAL_REASONS), len(REMOVAL_COLUMNS)))
+        self.removed_rigid = 0
 
     @property
     def n(self) -> int:
@@ -119,8 +140,9 @@ class State:
         Keys: every entry of :data:`PARTICLE_FIELDS` and of the state's :data:`OPTIONAL_FIELDS`,
         ``state`` (n, n_state_max), ``J`` (n,),
         ``failure`` (n,) int (0 intact, 1 matrix, 2 fiber, 3 both; -1 where the law has no
-        failure variable), ``order`` (ids in storage order), and scalars ``time``, ``step``,
-        ``dt_ref`` (NaN if not yet set). ``materials`` defaults to the solver's.
+        failure variable), ``order`` (ids in storage order), ``removed`` (:attr:`removed`, a copy),
+        and scalars ``time``, ``step``, ``dt_ref`` (NaN if not yet set), ``removed_rigid``.
+        ``materials`` defaults to the solver's.
         """
         materials = materials if materials is not None else getattr(self, "materials", [])
         ids = self.id.numpy()
@@ -144,6 +166,8 @@ class State:
         out["time"] = float(self.time)
         out["step"] = int(self.step)
         out["dt_ref"] = float("nan") if self.dt_ref is None else float(self.dt_ref)
+        out["removed"] = np.array(self.removed)
+        out["removed_rigid"] = int(self.removed_rigid)
         return out
 
     @classmethod
@@ -152,7 +176,8 @@ class State:
 
         ``data`` must hold every key of :data:`RESTART_FIELDS` (``x0``, ``work``, ``reaction``,
         ``vpic``, ``L``, ``id`` and ``field`` may be omitted: they default to ``x``, 0, 0, 0, 0,
-        0..n-1 and 0), and may hold ``order``, ``time``, ``step``, ``dt_ref`` and the
+        0..n-1 and 0), and may hold ``order``, ``time``, ``step``, ``dt_ref``, ``removed``,
+        ``removed_rigid`` and the
         :data:`OPTIONAL_FIELDS` the solver needs (without them the solver's defaults apply: a grid
         reset at the restart, zero acceleration).
         """
@@ -185,24 +210,49 @@ class State:
         state.step = int(data.get("step", 0))
         dt_ref = float(data.get("dt_ref", float("nan")))
         state.dt_ref = None if not np.isfinite(dt_ref) else dt_ref
+        if "removed" in data:
+            state.removed = np.array(data["removed"], dtype=np.float64).reshape(state.removed.shape)
+        state.removed_rigid = int(data.get("removed_rigid", 0))
         return state
 
     def permute(self, perm: np.ndarray) -> None:
         """Reorder the particles in place: storage position k takes the particle now at ``perm[k]``
         (Warp gathers into a scratch array, copied back, so references to the arrays stay valid)."""
+        self._gather(perm, in_place=True)
+
+    def remove(self, drop: np.ndarray) -> None:
+        """Take the particles where ``drop`` (bool, storage order) is True out of the state.
+
+        The others keep their storage order and their ``id`` (frames and :meth:`to_numpy` still
+        follow them); every particle array (and the history) is replaced by a shorter one, so
+        the solver must rebuild what depends on the count (:meth:`ExplicitSolver.remove`, which
+        also accounts for what the removed particles carried)."""
+        self._gather(np.flatnonzero(~np.asarray(drop, dtype=bool)), in_place=False)
+
+    def _gather(self, perm: np.ndarray, in_place: bool) -> None:
+        """Storage position k takes the particle now at ``perm[k]`` (Warp gathers): copied back into
+        the arrays (``in_place``, same count) or into new arrays of ``len(perm)``."""
         dev = self.x.device
+        m = len(perm)
         p = wp.array(np.asarray(perm, dtype=np.int64), dtype=wp.int64, device=dev)
         scratch: dict[Any, wp.array] = {}
         for name in self.fields:
             a = getattr(self, name)
-            tmp = scratch.get(a.dtype)
-            if tmp is None:  # one scratch array per dtype, shared by the fields of that type
-                tmp = scratch[a.dtype] = wp.empty_like(a)
-            wp.launch(gather_kernel(a.dtype), dim=self.n, inputs=[a, p, tmp], device=dev)
-            wp.copy(a, tmp)
-        if self.history.shape[1] > 0:
-            tmp = wp.empty_like(self.history)
-            wp.launch(gather_kernel(self.history.dtype, rows=True), dim=self.history.shape, inputs=[self.history, p, tmp], device=dev)
+            tmp = scratch.get(a.dtype) if in_place else None
+            if tmp is None:  # in place: one scratch array per dtype, shared by the fields of that type
+                tmp = scratch[a.dtype] = wp.empty(m, dtype=a.dtype, device=dev)
+            wp.launch(gather_kernel(a.dtype), dim=m, inputs=[a, p, tmp], device=dev)
+            if in_place:
+                wp.copy(a, tmp)
+            else:
+                setattr(self, name, tmp)
+        cols = self.history.shape[1]
+        tmp = wp.empty((m, cols), dtype=self.history.dtype, device=dev)
+        if cols > 0:
+            wp.launch(gather_kernel(self.history.dtype, rows=True), dim=(m, cols), inputs=[self.history, p, tmp], device=dev)
+        if not in_place:
+            self.history, self.history_next = tmp, wp.clone(tmp)
+        elif cols > 0:
             wp.copy(self.history, tmp)
             wp.copy(self.history_next, tmp)
 

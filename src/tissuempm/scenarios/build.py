@@ -128,6 +128,10 @@ def solver_config(scenario: Scenario, device: str = "cpu") -> SolverConfig:
         grid=s.grid,
         reset_distance=s.reset_distance,
         reset_interval=s.reset_interval,
+        outflow=scenario.run.outflow,
+        anti_locking=s.anti_locking,
+        bulk_viscosity_linear=s.bulk_viscosity.linear if s.bulk_viscosity is not None else 0.0,
+        bulk_viscosity_quadratic=s.bulk_viscosity.quadratic if s.bulk_viscosity is not None else 0.0,
     )
 
 
@@ -190,6 +194,21 @@ def seed_particles(scenario: Scenario, model: Model) -> tuple[ParticleData, np.n
     return ParticleData(fixed=fixed, field=body_field[body], **data), body
 
 
+def with_free_masses(scenario: Scenario, model: Model, particles: ParticleData, body: np.ndarray) -> Model:
+    """``model`` with the density of each free rigid body whose mass M is given
+    (:meth:`Scenario.free_masses`) set to M / V, V the volume of its seeded particles, so that
+    they weigh M (to round-off): a body clipped by a symmetry face weighs the M given."""
+    masses = scenario.free_masses()
+    if not masses:
+        return model
+    materials = list(model.materials)
+    for i, (mass, bodies) in masses.items():
+        volume = float(particles.volume[np.isin(body, bodies)].sum())
+        if volume > 0:  # a material no body uses has no particles to weigh
+            materials[i] = dataclasses.replace(materials[i], density=mass / volume)
+    return dataclasses.replace(model, materials=materials)
+
+
 def build(scenario: Scenario, device: str = "cpu") -> Problem:
     """Everything the solver needs to run ``scenario`` on ``device``.
 
@@ -200,4 +219,5 @@ def build(scenario: Scenario, device: str = "cpu") -> Problem:
     check_size(scenario, device)
     model = build_model(scenario)
     particles, body = seed_particles(scenario, model)
+    model = with_free_masses(scenario, model, particles, body)
     return Problem(solver_config(scenario, device), model, particles, list(scenario.materials), body, loading(scenario))

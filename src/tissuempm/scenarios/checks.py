@@ -3,7 +3,8 @@
 * :func:`check_device`: ``cpu``, ``cuda`` or ``cuda:N``, and for CUDA a device Warp can use.
 * :func:`check_bodies`: every body lies inside the grid (a particle outside it would
   be dropped by the seeding, silently changing the body), counted on the seeding
-  lattice before seeding.
+  lattice before seeding; beyond a symmetry face (``slip`` with no normal velocity) a body
+  is clipped: the part behind it is the mirror image the symmetry stands for.
 * :func:`check_size`: the particle count and the memory of the run, estimated before
   seeding, against ``run.max_particles`` or, when that is not set, the memory of the
   machine (of the GPU for ``cuda``). Body i gives about ``f_i B_i n_i^3`` particles,
@@ -91,14 +92,23 @@ FAR = 2**50
 """Sub-cell indices beyond this many from the grid are not counted: the body is far outside the grid."""
 
 
+def symmetry_faces(scenario: Scenario) -> set[tuple[int, str]]:
+    """(axis, side) of the grid faces that are symmetry planes: ``slip`` with zero normal velocity."""
+    return {(b.axis_index, b.side) for b in scenario.boundaries if b.kind == "slip" and b.velocity[b.axis_index] == 0.0}
+
+
 def check_bodies(scenario: Scenario) -> None:
     """Raise :class:`ScenarioError` naming each body with particles outside the grid, and how many.
 
     The body's lattice beyond the grid (continued past its faces) is split into six
     disjoint slabs, below and above the grid along x, then y (within the grid's x range),
     then z (within its x and y ranges), and the points inside the shape are counted in each.
+    Behind a symmetry face (:func:`symmetry_faces`) the lattice is allowed: the slab there is
+    not counted and the later slabs span it, so a point beyond a symmetry face and another face
+    still counts (the seeding keeps only the grid's cells: the part behind is clipped).
     """
     g = scenario.grid
+    sym = symmetry_faces(scenario)
     top = [n * g.cell_size + o for n, o in zip(g.cells, g.lower)]
     problems = []
     for i, (body, name) in enumerate(zip(scenario.bodies, scenario.body_names())):
@@ -112,11 +122,13 @@ def check_bodies(scenario: Scenario) -> None:
         if any(a < -FAR or b > FAR for a, b in ranges):
             problems.append(f"{where}: it spans {_span(shape.bounds())}, far beyond {grid_span}")
             continue
-        inside = [(max(a, 0), min(b, n * pc)) for (a, b), n in zip(ranges, g.cells)]
+        allowed = [(a if (k, "lower") in sym else max(a, 0), b if (k, "upper") in sym else min(b, n * pc))
+                   for k, ((a, b), n) in enumerate(zip(ranges, g.cells))]  # fmt: skip
         parts = []
         for k in range(3):
-            for out in ((ranges[k][0], min(ranges[k][1], 0)), (max(ranges[k][0], g.cells[k] * pc), ranges[k][1])):
-                parts.append(inside[:k] + [out] + ranges[k + 1 :])
+            lo, hi = allowed[k]
+            for out in ((ranges[k][0], min(ranges[k][1], lo)), (max(ranges[k][0], hi), ranges[k][1])):
+                parts.append(allowed[:k] + [out] + ranges[k + 1 :])
         counts = [count_inside(shape, part, g.lower, g.cell_size / pc) for part in parts]
         dropped = sum(c for c, _ in counts)
         if dropped == 0:

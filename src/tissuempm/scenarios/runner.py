@@ -38,8 +38,11 @@ each step from its time and time step), so a restarted run ends in the same stat
 as an uninterrupted one.
 
 A run that goes unstable (:class:`tissuempm.mpm.InstabilityError`: NaN, J <= 0,
-a particle leaving the grid, a collapsing time step) stops with status
-``"unstable"``; the checkpoint from before the failure is kept.
+a particle leaving the grid with ``run.outflow = "stop"``, a collapsing time step, no particle
+left) stops with status ``"unstable"``; the checkpoint from before the failure is kept. With
+``run.outflow = "remove"`` (default) particles leaving the grid are removed and counted, as are
+eroded ones (:mod:`tissuempm.mpm.removal`): frames then hold fewer particles (the ``id`` field
+follows them), ``history.csv`` and ``summary.json`` (``removed``) hold what they took with them.
 """
 
 import hashlib
@@ -66,6 +69,8 @@ from tissuempm.io import (
 from tissuempm.io.background import BackgroundWriter
 from tissuempm.io.frames import DEFAULT_FRAME_FIELDS, select_fields, state_names
 from tissuempm.mpm import ExplicitSolver, ImplicitSolver, InstabilityError, State
+from tissuempm.mpm.solver import removed_summary
+from tissuempm.mpm.state import REMOVAL_COLUMNS, REMOVAL_REASONS
 from tissuempm.scenarios import run_folder
 from tissuempm.scenarios.build import Problem, build, implicit_config
 from tissuempm.scenarios.checks import check_device, stability_warnings
@@ -165,7 +170,7 @@ class Runner:
     def _write_frame(self, data: dict[str, Any]) -> None:
         """Write a frame of ``data`` (on the writer thread)."""
         fields = particle_fields(data, self.materials)
-        fields["body"] = self.problem.body  # to_numpy() returns the original particle order
+        fields["body"] = self.problem.body[np.asarray(data["id"])]  # to_numpy(): original order, removed ones left out
         fields = select_fields(fields, self.frame_fields, self._history_names)
         self.series.write(float(data["time"]), np.asarray(data["x"]), fields)
 
@@ -262,7 +267,9 @@ class Runner:
         run_folder.check(self.out, restart=restart, overwrite=overwrite)
         self.series = VTUSeries(self.out, SERIES)
         rigid = {i: n for i, n in enumerate(self.problem.material_names) if self.problem.model.is_rigid(i)}
-        self.history = HistoryLog(self.out / HISTORY, rigid)
+        free = tuple(i for i in rigid if self.problem.model.is_free(i))
+        removed = tuple(f"{r}_{c}" for r in REMOVAL_REASONS for c in REMOVAL_COLUMNS)
+        self.history = HistoryLog(self.out / HISTORY, rigid, free, removed)
         self.clock0, self.wall_before = wallclock.perf_counter(), 0.0
         self.output_s, self.frame_at, self.history_at = 0.0, -math.inf, -1
         self.writer = BackgroundWriter(depth=2)
@@ -356,6 +363,9 @@ class Runner:
             "end_time": self.scenario.run.end_time,
             "steps": state.step,
             "particles": n,
+            "particles_left": state.n,
+            "removed": removed_summary(state.removed),
+            "removed_rigid": int(state.removed_rigid),
             "wall_s": self.wall_before + wall,
             "steps_per_s": steps_here / wall if wall > 0 else None,
             "particle_steps_per_s": n * steps_here / wall if wall > 0 else None,

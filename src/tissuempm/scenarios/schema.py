@@ -62,6 +62,7 @@ Speed = quantity("m/s")
 Acceleration = quantity("m/s^2")
 Angle = quantity("rad")
 Density = quantity("kg/m^3")
+Mass = quantity("kg")
 Number = quantity("1")
 Point = tuple[Length, Length, Length]
 Direction = tuple[Number, Number, Number]
@@ -177,6 +178,14 @@ class ImplicitSection(Section):
         return self
 
 
+class BulkViscositySection(Section):
+    """``[solver.bulk_viscosity]``: artificial bulk viscosity in compression (an empty table takes
+    LS-DYNA's defaults): q = rho h (quadratic h (tr D)^2 - linear c tr D) for tr D < 0."""
+
+    linear: Annotated[float, Field(ge=0.0, le=10.0)] = 0.06
+    quadratic: Annotated[float, Field(ge=0.0, le=10.0)] = 1.5
+
+
 class SolverSection(Section):
     """``[solver]``: the MPM settings (:class:`tissuempm.mpm.SolverConfig`; with
     ``integrator = "implicit"`` also :class:`tissuempm.mpm.ImplicitConfig` from ``[solver.implicit]``)."""
@@ -197,9 +206,14 @@ class SolverSection(Section):
     gravity_amplitude: AmplitudeRef | None = None
     damping: Annotated[quantity("1/s"), Field(ge=0.0)] = 0.0
     dt_max: Annotated[Time, Field(gt=0.0)] | None = None
+    anti_locking: Literal["none", "fbar"] | None = None
+    """None: the integrator's default ("fbar" explicit, "none" implicit; docs/mpm.md says why)."""
+    bulk_viscosity: BulkViscositySection | None = None
 
     @model_validator(mode="after")
     def _integrator(self) -> "SolverSection":
+        if self.integrator == "implicit" and (self.anti_locking == "fbar" or self.bulk_viscosity is not None):
+            raise ValueError("anti_locking = 'fbar' and [solver.bulk_viscosity] are available with integrator = 'explicit' only")
         if self.integrator == "implicit" and self.implicit is None:
             raise ValueError("integrator = 'implicit' needs a [solver.implicit] table with at least dt (the time step)")
         if self.integrator == "explicit" and self.implicit is not None:
@@ -395,6 +409,10 @@ class BodySection(Section):
     particles_per_cell: Annotated[int, Field(ge=1, le=8)] = 2
     velocity: Velocity = (0.0, 0.0, 0.0)
     fiber: FiberSpec | None = None
+    mass: Annotated[Mass, Field(gt=0.0)] | None = None
+    """Mass [kg] of a free rigid body: its particles' density is scaled so that they weigh exactly
+    this (the material must be a free rigid one used by this body only, without its own
+    ``density`` or ``mass``)."""
 
 
 class FixedSection(Section):
@@ -410,11 +428,14 @@ class ContactSection(Section):
     Pairs not listed are ``bonded`` (one velocity field: they stick together, as single-field
     MPM); ``frictionless`` and ``friction`` give each side its own velocity field, allow
     separation and sliding and forbid interpenetration, with Coulomb friction ``mu``.
+    ``separation``: when the two act on each other, ``"gap"`` once their surfaces touch,
+    ``"node"`` as soon as they share a grid node (about a cell early; for older results).
     """
 
     bodies: Annotated[list[str], Field(min_length=2, max_length=2)]
     law: Literal["bonded", "frictionless", "friction"] = "friction"
     mu: Annotated[float, Field(ge=0.0, allow_inf_nan=False)] = 0.0
+    separation: Literal["gap", "node"] = "gap"
 
     @model_validator(mode="after")
     def _mu_with_friction(self) -> "ContactSection":
@@ -444,6 +465,9 @@ class RunSection(Section):
     max_particles: Annotated[int, Field(ge=1)] | None = None
     """Largest particle count the run may seed (default: as many as fit in the memory of the
     machine, :func:`tissuempm.scenarios.checks.check_size`)."""
+    outflow: Literal["remove", "stop"] = "remove"
+    """A particle leaving the grid through a face without a wall is removed and counted
+    (``"remove"``, :mod:`tissuempm.mpm.removal`) or stops the run (``"stop"``, "left grid")."""
     output: str | None = None
 
     @property
@@ -545,11 +569,19 @@ class RigidSpec(Section):
 
     velocity: Velocity = (0.0, 0.0, 0.0)
     density: Annotated[Density, Field(gt=0.0)] = 7800.0
+    mass: Annotated[Mass, Field(gt=0.0)] | None = None
+    """Total mass [kg] of a free body's particles (instead of ``density``, which is then scaled to it)."""
     amplitude: AmplitudeRef | None = None
     free: bool = False
 
     @model_validator(mode="after")
     def _free_body(self) -> "RigidSpec":
+        if self.mass is not None and not self.free:
+            raise ValueError(f"mass = {self.mass:g} kg applies to a free rigid body (free = true): "
+                             "a driver's motion is prescribed; give its density instead")  # fmt: skip
+        if self.mass is not None and "density" in self.model_fields_set:
+            raise ValueError(f"mass = {self.mass:g} kg and density = {self.density:g} kg/m^3 are both given: "
+                             "give one (mass sets the density from the seeded volume)")  # fmt: skip
         if self.free and self.amplitude is not None:
             raise ValueError(f"amplitude = {self.amplitude!r}: a free rigid body (free = true) has no prescribed "
                              "velocity to scale; remove amplitude or set free = false")  # fmt: skip
@@ -557,6 +589,8 @@ class RigidSpec(Section):
         return self
 
     def build(self) -> Any:
+        """The :class:`~tissuempm.mpm.RigidMaterial` (with ``mass``, the density is set from the
+        seeded volume by :func:`tissuempm.scenarios.build.build`)."""
         from tissuempm.mpm import RigidMaterial
 
         return RigidMaterial(velocity=self.velocity, density=self.density, free=self.free)
@@ -601,6 +635,7 @@ class Scenario(Section):
         body_names = [b.name for b in self.bodies if b.name]
         if len(set(body_names)) != len(body_names):
             raise ValueError(f"body names must be unique, got {body_names}")
+        self._body_masses()
         for i, fix in enumerate(self.fixed):
             for b in fix.bodies or []:
                 if b not in body_names:
@@ -633,6 +668,38 @@ class Scenario(Section):
                 )
         return self
 
+    def _body_masses(self) -> None:
+        """``body[i].mass`` needs a free rigid material of its own, without ``density`` or ``mass``."""
+        names = self.body_names()
+        for i, body in enumerate(self.bodies):
+            if body.mass is None:
+                continue
+            data = self.materials[body.material]
+            where = f"body[{i}].mass"
+            if data.get("kind") != "rigid" or not _rigid_spec(data).free:
+                raise ValueError(f"{where}: material {body.material!r} is not a free rigid body "
+                                 "(kind = 'rigid', free = true): only a free body's mass can be set")  # fmt: skip
+            if "mass" in data or "density" in data:
+                key = "mass" if "mass" in data else "density"
+                raise ValueError(f"{where} and materials.{body.material}.{key} are both given: give one")
+            users = [names[k] for k, b in enumerate(self.bodies) if b.material == body.material]
+            if len(users) > 1:
+                raise ValueError(f"{where}: material {body.material!r} is used by bodies {users}, which move as one "
+                                 f"free body: give the total as materials.{body.material}.mass instead")  # fmt: skip
+
+    def free_masses(self) -> dict[int, tuple[float, list[int]]]:
+        """Material index -> (mass [kg], the bodies it is the mass of) of the free rigid bodies
+        whose mass is given (``materials.<name>.mass`` or ``body[i].mass``)."""
+        out: dict[int, tuple[float, list[int]]] = {}
+        names = list(self.materials)
+        for i, spec in self.rigid_drivers().items():
+            if spec.mass is not None:
+                out[i] = (spec.mass, [k for k, b in enumerate(self.bodies) if b.material == names[i]])
+        for k, b in enumerate(self.bodies):
+            if b.mass is not None:
+                out[names.index(b.material)] = (b.mass, [k])
+        return out
+
     def _amplitude_uses(self) -> list[tuple[str, AmplitudeSpec | str]]:
         """(key path, amplitude) of every amplitude the scenario applies."""
         names = list(self.materials)
@@ -658,7 +725,7 @@ class Scenario(Section):
         ``[[contact]]`` (:func:`~tissuempm.mpm.contact.assign_fields`)."""
         from tissuempm.mpm.contact import ContactLaw, assign_fields
 
-        laws = {tuple(c.bodies): ContactLaw(c.law, c.mu) for c in self.contacts}
+        laws = {tuple(c.bodies): ContactLaw(c.law, c.mu, c.separation) for c in self.contacts}
         return assign_fields(self.body_names(), laws)  # type: ignore[arg-type]
 
     def build_materials(self) -> list[Any]:
