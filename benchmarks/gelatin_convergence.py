@@ -1,0 +1,111 @@
+"""Steel sphere into ballistic gelatin (examples/gelatin_sphere.toml): depth against resolution and speed.
+
+Each level runs the example with overrides (``--set`` syntax of ``tissuempm run``) and reads the
+sphere's history: the depth is the largest centre position along the shot plus the radius (the
+nose; the block face is y = 0), with the speed at 50 us (early drag) and at the end. Results go to
+``benchmarks/results/gelatin_sphere.jsonl`` (one record a run, appended), the figure to
+``docs/figures/gelatin_sphere.png``.
+
+    python benchmarks/gelatin_convergence.py --levels "2 mm" "1.5 mm" "1 mm" "0.75 mm"
+    python benchmarks/gelatin_convergence.py --levels "1 mm" --set 'grid.upper=["12 mm", "100 mm", "12 mm"]' \\
+        --set 'body[1].shape.upper=["12 mm", "95 mm", "12 mm"]' --tag narrow
+    python benchmarks/gelatin_convergence.py --plot        # the figure from the records
+"""
+
+import argparse
+import json
+import math
+import tempfile
+import time
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "examples/gelatin_sphere.toml"
+RECORDS = ROOT / "benchmarks/results/gelatin_sphere.jsonl"
+FIGURE = ROOT / "docs/figures/gelatin_sphere.png"
+RADIUS = 2.25e-3
+
+
+def run_level(cell: str, sets: list[str], tag: str) -> dict:
+    """Run the example at ``cell`` size with the overrides ``sets``; the record of the run."""
+    from tissuempm.io.history import HistoryLog
+    from tissuempm.scenarios.overrides import apply_overrides
+    from tissuempm.scenarios.runner import HISTORY, Runner
+    from tissuempm.scenarios.schema import Scenario
+
+    data = tomllib.loads(EXAMPLE.read_text())
+    data = apply_overrides(data, [f'grid.cell_size="{cell}"', *sets])
+    scenario = Scenario.from_dict(data)
+    with tempfile.TemporaryDirectory() as out:
+        t0 = time.perf_counter()
+        runner = Runner(scenario, out)
+        n = runner.problem.particles.n
+        summary = runner.run()
+        wall = time.perf_counter() - t0
+        h = HistoryLog(Path(out) / HISTORY, {}).read()
+    t, y, v = h["time"], h["position_sphere_y"], h["velocity_sphere_y"]
+    return {
+        "tag": tag, "cell": cell, "sets": sets, "particles": n, "steps": int(h["step"][-1]),
+        "depth_mm": 1e3 * (float(np.nanmax(y)) + RADIUS), "v50_m_s": float(np.interp(50e-6, t, v)),
+        "v_end_m_s": float(v[-1]), "t_end_ms": 1e3 * float(t[-1]), "eroded": int(h["eroded_count"][-1]),
+        "bulk_viscosity_work_J": float(h["bulk_viscosity_work"][-1]), "wall_s": wall,
+        "status": summary.status,
+        "t_ms": (1e3 * t).tolist(), "y_mm": (1e3 * y).tolist(), "v": v.tolist(),
+    }  # fmt: skip
+
+
+def plot(records: list[dict]) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.5))
+    for tag in sorted({r["tag"] for r in records}):
+        rs = sorted((r for r in records if r["tag"] == tag), key=lambda r: -float(r["cell"].split()[0]))
+        hs = [float(r["cell"].split()[0]) for r in rs]
+        a.plot(hs, [r["depth_mm"] for r in rs], "o-", label=tag)
+        for r in rs:
+            b.plot(r["t_ms"], r["v"], ls="-" if tag == "example" else "--", label=f"{tag}, h = {r['cell']}")
+    for lo, hi, name, col in ((48.2, 51.2, "20 %, 10 C (Maiden 2015)", "tab:green"),
+                              (77.0, 81.2, "20 %, 20 C (Maiden 2015)", "tab:orange"),
+                              (75.0, 95.0, "10 %, 4 C (FBI window)", "tab:purple")):  # fmt: skip
+        a.axhspan(lo, hi, alpha=0.15, color=col, label=name)
+    a.set_xlabel("cell size h [mm]")
+    a.set_ylabel("penetration depth (nose) [mm]")
+    a.invert_xaxis()
+    a.set_title("4.5 mm steel sphere at 180 m/s into gelatin")
+    a.legend(fontsize=8)
+    b.set_xlabel("t [ms]")
+    b.set_ylabel("sphere speed [m/s]")
+    b.set_title("sphere speed against time")
+    b.legend(fontsize=7)
+    fig.tight_layout()
+    FIGURE.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(FIGURE, dpi=120)
+    print(f"wrote {FIGURE}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--levels", nargs="*", default=[])
+    ap.add_argument("--set", action="append", default=[], dest="sets")
+    ap.add_argument("--tag", default="example")
+    ap.add_argument("--plot", action="store_true")
+    args = ap.parse_args()
+    for cell in args.levels:
+        rec = run_level(cell, args.sets, args.tag)
+        RECORDS.parent.mkdir(parents=True, exist_ok=True)
+        with open(RECORDS, "a") as f:
+            f.write(json.dumps(rec) + "\n")
+        print(json.dumps({k: v for k, v in rec.items() if k not in ("t_ms", "y_mm", "v")}), flush=True)
+    if args.plot or args.levels:
+        records = [json.loads(line) for line in RECORDS.read_text().splitlines() if line.strip()]
+        plot([r for r in records if math.isfinite(r["depth_mm"])])
+
+
+if __name__ == "__main__":
+    main()
