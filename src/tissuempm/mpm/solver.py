@@ -53,10 +53,6 @@ from tissuempm.mpm.state import OPTIONAL_FIELDS, PARTICLE_FIELDS, REMOVAL_COLUMN
 from tissuempm.mpm.volumetric import CellAverage
 from tissuempm.precision import cuda_driver_present, init_warp, warp_types
 
-EROSION_INTERVAL = 10
-"""Steps between two erosion passes when no particle was flagged: a failed particle is stress-free
-already, and compacting the arrays for every single eroded particle cost more than the rest of the step
-(a 38,000-particle gelatin run: 50 ms a step with a pass every step, against 40 ms without erosion)."""
 MIN_CHUNK = 4096
 """Smallest chunk (particles) worth its own thread and grid buffer."""
 _FACES = {("lower", a): 2 * a for a in range(3)} | {("upper", a): 2 * a + 1 for a in range(3)}
@@ -626,7 +622,7 @@ class ExplicitSolver:
         (``outflow = "remove"``) or eroded (:mod:`tissuempm.mpm.removal`)."""
         bad = int(self._slots(st, "bad").min())
         flagged = bad < st.n
-        if not flagged and (not self._erodes or (st.step + 1) % EROSION_INTERVAL):
+        if not flagged and not self._erodes:
             return
         if flagged and self.config.outflow == "stop" and not self._erodes:
             self._unstable(st, bad)
