@@ -72,7 +72,7 @@ class ExplicitSolver:
     default_anti_locking = "fbar"
     """Volumetric treatment when ``SolverConfig.anti_locking`` is None: F-bar removes the locking of
     nearly incompressible laws (a plane-strain cantilever at K/G = 10 is 19 % too stiff without it)
-    for about a tenth more per step (docs/mpm.md)."""
+    for 10-23 % more per step (docs/mpm.md)."""
 
     def __init__(self, model: Model, config: SolverConfig | None = None):
         init_warp()
