@@ -1,4 +1,5 @@
-"""Steel sphere into ballistic gelatin (examples/gelatin_sphere.toml): depth against resolution and speed.
+"""Steel sphere into ballistic gelatin (examples/gelatin_sphere_axisymmetric.toml, or the quarter model
+examples/gelatin_sphere.toml with ``--example``): depth against resolution and speed.
 
 Each level runs the example with overrides (``--set`` syntax of ``tissuempm run``) and reads the
 sphere's history: the depth is the largest centre position along the shot plus the radius (the
@@ -9,7 +10,12 @@ nose; the block face is y = 0), with the speed at 50 us (early drag) and at the 
     python benchmarks/gelatin_convergence.py --levels "2 mm" "1.5 mm" "1 mm" "0.75 mm"
     python benchmarks/gelatin_convergence.py --levels "1 mm" --set 'grid.upper=["12 mm", "100 mm", "12 mm"]' \\
         --set 'body[1].shape.upper=["12 mm", "95 mm", "12 mm"]' --tag narrow
+    python benchmarks/gelatin_convergence.py --example examples/gelatin_sphere.toml --levels "1 mm" --tag quarter
     python benchmarks/gelatin_convergence.py --plot        # the figure from the records
+
+Records before the symmetry fix of free bodies (a quarter model's sphere was pushed toward its
+symmetry planes: see src/tissuempm/mpm/free_bodies.py) are kept in
+``benchmarks/results/gelatin_sphere_before_symmetry_fix.jsonl``.
 """
 
 import argparse
@@ -23,20 +29,20 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-EXAMPLE = ROOT / "examples/gelatin_sphere.toml"
+EXAMPLE = ROOT / "examples/gelatin_sphere_axisymmetric.toml"
 RECORDS = ROOT / "benchmarks/results/gelatin_sphere.jsonl"
 FIGURE = ROOT / "docs/figures/gelatin_sphere.png"
 RADIUS = 2.25e-3
 
 
-def run_level(cell: str, sets: list[str], tag: str) -> dict:
-    """Run the example at ``cell`` size with the overrides ``sets``; the record of the run."""
+def run_level(cell: str, sets: list[str], tag: str, example: Path = EXAMPLE) -> dict:
+    """Run ``example`` at ``cell`` size with the overrides ``sets``; the record of the run."""
     from tissuempm.io.history import HistoryLog
     from tissuempm.scenarios.overrides import apply_overrides
     from tissuempm.scenarios.runner import HISTORY, Runner
     from tissuempm.scenarios.schema import Scenario
 
-    data = tomllib.loads(EXAMPLE.read_text())
+    data = tomllib.loads(example.read_text())
     data = apply_overrides(data, [f'grid.cell_size="{cell}"', *sets])
     scenario = Scenario.from_dict(data)
     with tempfile.TemporaryDirectory() as out:
@@ -48,7 +54,7 @@ def run_level(cell: str, sets: list[str], tag: str) -> dict:
         h = HistoryLog(Path(out) / HISTORY, {}).read()
     t, y, v = h["time"], h["position_sphere_y"], h["velocity_sphere_y"]
     return {
-        "tag": tag, "cell": cell, "sets": sets, "particles": n, "steps": int(h["step"][-1]),
+        "tag": tag, "example": example.name, "cell": cell, "sets": sets, "particles": n, "steps": int(h["step"][-1]),
         "depth_mm": 1e3 * (float(np.nanmax(y)) + RADIUS), "v50_m_s": float(np.interp(50e-6, t, v)),
         "v_end_m_s": float(v[-1]), "t_end_ms": 1e3 * float(t[-1]), "eroded": int(h["eroded_count"][-1]),
         "bulk_viscosity_work_J": float(h["bulk_viscosity_work"][-1]), "wall_s": wall,
@@ -93,11 +99,12 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--levels", nargs="*", default=[])
     ap.add_argument("--set", action="append", default=[], dest="sets")
-    ap.add_argument("--tag", default="example")
+    ap.add_argument("--tag", default="axisymmetric")
+    ap.add_argument("--example", type=Path, default=EXAMPLE)
     ap.add_argument("--plot", action="store_true")
     args = ap.parse_args()
     for cell in args.levels:
-        rec = run_level(cell, args.sets, args.tag)
+        rec = run_level(cell, args.sets, args.tag, args.example.resolve())
         RECORDS.parent.mkdir(parents=True, exist_ok=True)
         with open(RECORDS, "a") as f:
             f.write(json.dumps(rec) + "\n")

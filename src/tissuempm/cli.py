@@ -6,9 +6,11 @@
     tissuempm materials stress NAME --mode uniaxial --stretch 0.7:1.5:17 [--rate R] [--fiber X,Y,Z] [--json]
     tissuempm materials plot NAME -o FILE.png
     tissuempm calibrate CONFIG.toml [--out DIR] [--json]
+    tissuempm digitize IMAGE --x PX,V --x PX,V --y PY,V --y PY,V --color C [--kind markers] [--out DIR]
     tissuempm run SCENARIO.toml [--out DIR] [--device cpu|cuda] [--restart]
     tissuempm wound RUN_DIR [--frame N] [--json] [--out DIR] [--projectile NAME] [--tissue NAME] [--no-figures]
     tissuempm study STUDY.toml [--out DIR] [--scheduler ADDRESS | --workers N] [--resume]
+    tissuempm head build [--resolution "4 mm"] [--out head.nii.gz] [--synthetic] [--figure head.png]
 """
 
 import importlib
@@ -21,20 +23,25 @@ import click
 import numpy as np
 import typer
 from rich.console import Console
-from rich.markup import escape
+from rich.markup import escape  # noqa: F401
 from rich.table import Table
 from typer.core import TyperGroup
 
 from tissuempm import __version__
+from tissuempm.safety import MAX_POINTS, InputLimitError, direction_problem, markup, safe_name
+from tissuempm.safety import message as printable
 
 LAZY_COMMANDS: dict[str, tuple[str, str]] = {
     "calibrate": ("tissuempm.calibration.command", "calibrate"),
+    "digitize": ("tissuempm.calibration.digitize_command", "digitize"),
     "run": ("tissuempm.scenarios.command", "run"),
     "wound": ("tissuempm.analysis.command", "wound"),
+    "brain": ("tissuempm.analysis.brain_command", "brain"),
     "study": ("tissuempm.study.command", "study"),
+    "head": ("tissuempm.head.command", "head"),
 }
-"""Commands of the calibration, MPM, analysis and study subpackages: name -> (module, function),
-imported only when the command is named (``tissuempm run`` loads neither SciPy's optimizers nor Dask)."""
+"""Commands of the calibration, MPM, analysis and study subpackages: name -> (module, function or
+``typer.Typer`` group such as ``head``), imported only when the command is named (``tissuempm run`` loads neither SciPy's optimizers nor Dask)."""
 
 
 class _LazyGroup(TyperGroup):
@@ -46,9 +53,15 @@ class _LazyGroup(TyperGroup):
     def get_command(self, ctx: click.Context, cmd_name: str) -> Optional[click.Command]:
         if cmd_name in LAZY_COMMANDS and cmd_name not in self.commands:
             module, name = LAZY_COMMANDS[cmd_name]
-            single = typer.Typer()
-            single.command(cmd_name)(getattr(importlib.import_module(module), name))
-            self.commands[cmd_name] = typer.main.get_command(single)
+            target = getattr(importlib.import_module(module), name)
+            if isinstance(target, typer.Typer):  # a group of subcommands (tissuempm head build)
+                command = typer.main.get_command(target)
+                command.name = cmd_name
+                self.commands[cmd_name] = command
+            else:
+                single = typer.Typer()
+                single.command(cmd_name)(target)
+                self.commands[cmd_name] = typer.main.get_command(single)
         return super().get_command(ctx, cmd_name)
 
 
@@ -62,13 +75,13 @@ err_console = Console(stderr=True)
 
 
 def _fail(message: str) -> None:
-    err_console.print(f"[bold red]error:[/] {escape(message)}", highlight=False)
+    err_console.print(f"[bold red]error:[/] {printable(message)}", highlight=False)
     raise typer.Exit(code=2)
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:  # noqa: ANN001
     """Warnings (e.g. a skipped user library file) as one ``warning:`` line on stderr, without source lines."""
-    err_console.print(f"[yellow]warning:[/] {escape(str(message))}", highlight=False)
+    err_console.print(f"[yellow]warning:[/] {printable(message)}", highlight=False)
 
 
 def _version(value: bool) -> None:
@@ -126,7 +139,7 @@ def materials_list(json_output: Annotated[bool, typer.Option("--json", help="Pri
     for col in ("name", "title", "table", "model", "source"):
         table.add_column(col, overflow="fold")
     for e in entries:
-        table.add_row(e.name, e.title, str(e.table), e.model["kind"], e.source)
+        table.add_row(*(markup(v, None) for v in (e.name, e.title, e.table, e.model["kind"], e.source)))
     console.print(table)
 
 
@@ -154,10 +167,11 @@ def materials_show(
     if json_output:
         typer.echo(json.dumps(_jsonable(info), indent=2))
         return
-    console.print(f"[bold]{entry.title}[/] ({entry.name}), table {entry.table}, group {entry.group}")
-    console.print(f"source: {entry.source}")
+    console.print(f"[bold]{markup(entry.title, None)}[/] ({markup(entry.name, None)}), table "
+                  f"{markup(entry.table, None)}, group {markup(entry.group, None)}", highlight=False)
+    console.print(f"source: {markup(entry.source, None)}", highlight=False)
     if entry.notes:
-        console.print(f"notes: {entry.notes}")
+        console.print(f"notes: {markup(entry.notes, None)}", highlight=False)
     table = Table(title="parameters (SI)")
     for col in ("parameter", "value", "unit", "meaning"):
         table.add_column(col)
@@ -215,12 +229,12 @@ def _parameter_rows(material, prefix: str = "") -> list[dict]:
 def _parse_range(text: str) -> np.ndarray:
     try:
         start, stop, n = text.split(":")
-        values = np.linspace(float(start), float(stop), int(n))
+        start, stop, n = float(start), float(stop), int(n)
     except ValueError:
         _fail(f"--stretch {text!r}: expected START:STOP:N, e.g. 0.7:1.5:17")
-    if int(n) < 1 or not np.all(np.isfinite(values)):
-        _fail(f"--stretch {text!r}: N must be >= 1 and START, STOP finite")
-    return values
+    if not 1 <= n <= MAX_POINTS or not (np.isfinite(start) and np.isfinite(stop)):
+        _fail(f"--stretch {text!r}: N must be 1..{MAX_POINTS:,} and START, STOP finite")
+    return np.linspace(start, stop, n)
 
 
 def _parse_fiber(text: str | None) -> tuple[float, float, float]:
@@ -230,8 +244,11 @@ def _parse_fiber(text: str | None) -> tuple[float, float, float]:
         a = tuple(float(x) for x in text.split(","))
     except ValueError:
         a = ()
-    if len(a) != 3 or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0.0:
+    if len(a) != 3:
         _fail(f"--fiber {text!r}: expected three numbers X,Y,Z, not all zero")
+    problem = direction_problem(a)
+    if problem:
+        _fail(f"--fiber {text!r}: {problem}")
     return a
 
 
@@ -307,7 +324,10 @@ def materials_plot(
     from tissuempm.materials.plots import plot_material
 
     entry = _entry(name)
-    target = output / f"{entry.name}.png" if output.is_dir() else output
+    try:
+        target = output / f"{safe_name(entry.name, 'library entry name')}.png" if output.is_dir() else output
+    except InputLimitError as exc:  # a user file's entry name such as '../x' must not leave the folder
+        _fail(f"-o {output}: {exc}; give a file name with -o")
     problem = folder_problem(target.parent)
     if problem is not None:
         _fail(f"-o {output}: cannot write {target}: {problem}")
@@ -318,4 +338,4 @@ def materials_plot(
         _fail(str(exc))
     except OSError as exc:
         _fail(f"-o {output}: cannot write {target}: {exc.strerror or exc}")
-    console.print(f"wrote {escape(str(written))}", highlight=False)
+    console.print(f"wrote {markup(written, None)}", highlight=False)

@@ -12,7 +12,8 @@ from rich.table import Table
 from tissuempm.analysis.errors import AnalysisError
 from tissuempm.analysis.report import Opening, Removed, WoundReport
 from tissuempm.analysis.wound import analyse_wound
-from tissuempm.io import write_json
+from tissuempm.io import folder_problem, write_json
+from tissuempm.safety import markup, message
 
 console = Console()
 err_console = Console(stderr=True)
@@ -48,11 +49,12 @@ def _removed(removed: Removed) -> str:
 
 def _table(report: WoundReport, out: Path | None) -> Table:
     p, f, t = report.projectile, report.failure, report.tract
-    table = Table(title=f"wound of {report.run_dir}: frame {report.frame} of {report.frame_count - 1}, "
+    table = Table(title=f"wound of {markup(report.run_dir, None)}: frame {report.frame} of {report.frame_count - 1}, "
                         f"t = {report.time * 1e6:.1f} us")
     table.add_column("measure")
     table.add_column("value")
-    table.add_row("bodies", f"projectile {p.name!r}, tissue {', '.join(map(repr, report.tissue_bodies))}")
+    table.add_row("bodies", f"projectile {markup(repr(p.name))}, tissue "
+                            f"{', '.join(markup(repr(b)) for b in report.tissue_bodies)}")
     table.add_row("thickness along the shot", _mm(report.thickness))
     table.add_row("perforated", f"{'yes' if report.perforated else 'no'} (projectile tail at "
                                 f"{_mm(report.projectile_tail_depth)} from the entry face)")
@@ -61,7 +63,7 @@ def _table(report: WoundReport, out: Path | None) -> Table:
     table.add_row("tissue failed", ", ".join(f"{k} {100 * v:.2f} %" for k, v in f.fractions.items())
                   + f"; of all particles {100 * f.failed_fraction_all:.2f} %")
     if report.removed.reasons_from is not None:
-        table.add_row("particles removed", _removed(report.removed))
+        table.add_row("particles removed", markup(_removed(report.removed), None))
     _opening_row(table, report.entry)
     _opening_row(table, report.exit)
     table.add_row("cavity diameter max / mean", f"{_mm(t.cavity_max)} / {_mm(t.cavity_mean)}")
@@ -70,7 +72,7 @@ def _table(report: WoundReport, out: Path | None) -> Table:
                                          f"from {_mm(t.crater_depth)} to the exit")
     table.add_row("tract slope below the entry crater", slope)
     if out is not None:
-        table.add_row("written to", str(out))
+        table.add_row("written to", markup(out, None))
     return table
 
 
@@ -86,7 +88,7 @@ def wound(
                                                  "(default: the last). Output then defaults to "
                                                  "RUN_DIR/wound_frame_N (N: the frame's index).")] = None,
     json_output: Annotated[bool, typer.Option("--json", help="Print the report as JSON on stdout.")] = False,
-    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Folder for wound.json and figures "
+    out: Annotated[Optional[str], typer.Option("--out", "-o", help="Folder for wound.json and figures "
                                                 "(default RUN_DIR/wound, or RUN_DIR/wound_frame_N "
                                                 "with --frame).")] = None,
     projectile: Annotated[Optional[str], typer.Option("--projectile", help="Projectile body name "
@@ -96,18 +98,31 @@ def wound(
     no_figures: Annotated[bool, typer.Option("--no-figures", help="Write wound.json only.")] = False,
 ) -> None:
     """Measure the wound of a penetration run: perforation, entry/exit wounds, tract profile (docs/wound.md)."""
+    def fail(text: object) -> typer.Exit:
+        err_console.print(f"[red]error:[/red] {message(text)}", highlight=False)
+        return typer.Exit(2)
+
+    if out is not None and not out.strip():
+        raise fail("--out '': give the folder for wound.json (or leave --out out for the default)")
+    for where in ([] if out is None else [Path(out)]):  # checked before the analysis: nothing is half-done
+        if (problem := folder_problem(where)) is not None:
+            raise fail(f"--out {where}: {problem}; choose another folder with --out")
     try:
         report = analyse_wound(run_dir, -1 if frame is None else frame, projectile, tissue or None)
     except AnalysisError as e:
-        err_console.print(f"[red]error:[/red] {e}", highlight=False)
-        raise typer.Exit(2) from None
-    out_dir = out if out is not None else default_out(run_dir, None if frame is None else report.frame)
+        raise fail(e) from None
+    out_dir = Path(out) if out is not None else default_out(run_dir, None if frame is None else report.frame)
+    if (problem := folder_problem(out_dir)) is not None:
+        raise fail(f"output folder {out_dir}: {problem}; choose another folder with --out")
     data = report.to_dict()
-    write_json(out_dir / "wound.json", data)
-    if not no_figures:
-        from tissuempm.analysis.figures import wound_figures
+    try:
+        if not no_figures:  # wound.json last: a failed write leaves no report a study would read
+            from tissuempm.analysis.figures import wound_figures
 
-        wound_figures(report, out_dir)
+            wound_figures(report, out_dir)
+        write_json(out_dir / "wound.json", data)
+    except OSError as e:
+        raise fail(f"cannot write the wound report in {out_dir}: {e.strerror or e}") from None
     if json_output:
         typer.echo(json.dumps(data, indent=2))
     else:

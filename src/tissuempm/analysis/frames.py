@@ -22,6 +22,7 @@ import numpy as np
 
 from tissuempm.analysis.errors import AnalysisError
 from tissuempm.io import read_pvd
+from tissuempm.safety import InputLimitError, input_file, inside
 
 PVD = "particles.pvd"
 SCENARIO = "scenario.json"
@@ -94,6 +95,11 @@ class Run:
             raise AnalysisError(f"{pvd} is not a readable ParaView collection: {exc}") from None
         if not self.frames:
             raise AnalysisError(f"{pvd} lists no frame")
+        for index, (_, rel) in enumerate(self.frames):  # a .pvd naming ../../etc/passwd is refused, not opened
+            try:
+                inside(self.path, rel, f"{pvd}: frame {index}")
+            except InputLimitError as exc:
+                raise AnalysisError(str(exc)) from None
         self.body_names = _body_names(self.path / SCENARIO)
 
     def __len__(self) -> int:
@@ -133,9 +139,11 @@ class Run:
         time, rel = self.frames[index]
         path = self.path / rel
         try:
+            input_file(path, f"frame {index}")  # a FIFO would block
             mesh = meshio.read(path, file_format="vtu")
-        except Exception as exc:  # missing file, truncated XML, bad base64 ...
-            raise AnalysisError(f"frame {index}: cannot read {path}: {exc}") from None
+        except (Exception, SystemExit) as exc:  # missing, truncated XML, bad base64, not a regular file ...
+            why = "not a readable VTU file (truncated or damaged?)" if isinstance(exc, SystemExit) else exc
+            raise AnalysisError(f"frame {index}: cannot read {path}: {why}") from None  # meshio: sys.exit(1)
         missing = [name for name in REQUIRED_FIELDS if name not in mesh.point_data]
         if missing:
             raise AnalysisError(f"frame {index} ({path}) lacks the point field(s) {', '.join(missing)}")
@@ -144,12 +152,20 @@ class Run:
         loaded = Frame(index, time, points, fields, np.arange(len(points)))
         return loaded if first is None else dataclasses.replace(loaded, rows=match_rows(first, loaded))
 
-    def grid_bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """``grid.lower``, ``grid.upper`` [m] of ``scenario.json``, or None where it has none."""
+    def grid_section(self) -> dict:
+        """The ``grid`` table of ``scenario.json`` ({} where it is missing or unreadable)."""
         try:
             grid = json.loads((self.path / SCENARIO).read_text())["grid"]
-            return np.asarray(grid["lower"], dtype=np.float64), np.asarray(grid["upper"], dtype=np.float64)
+            return grid if isinstance(grid, dict) else {}
         except (OSError, ValueError, KeyError, TypeError):
+            return {}
+
+    def grid_bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """``grid.lower``, ``grid.upper`` [m] of ``scenario.json``, or None where it has none."""
+        grid = self.grid_section()
+        try:
+            return np.asarray(grid["lower"], dtype=np.float64), np.asarray(grid["upper"], dtype=np.float64)
+        except (KeyError, ValueError, TypeError):
             return None
 
     def removed_summary(self) -> dict[str, int] | None:

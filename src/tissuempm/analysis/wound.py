@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from tissuempm.analysis.bodies import Roles, assign_roles, kinetic_energy
+from tissuempm.analysis.errors import AnalysisError
 from tissuempm.analysis.frames import Frame, Run
 from tissuempm.analysis.raster import (
     PIXELS_PER_SPACING,
@@ -349,8 +350,13 @@ def analyse_wound(
     Raises
     ------
     AnalysisError
-        For a missing or malformed run, a frame out of range, unknown or unusable bodies.
+        For a missing or malformed run, a frame out of range, unknown or unusable bodies, or an
+        axisymmetric run (its frames are the meridian plane; the wound measures are 3-D).
     """
+    grid = Run(run_dir).grid_section()
+    if grid.get("axisymmetric"):
+        raise AnalysisError(f"{run_dir} is an axisymmetric run (grid.axisymmetric = true): the wound analysis "
+                            "needs a 3-D run; its history.csv holds the projectile's depth and speed")
     setup = prepare(run_dir, frame, projectile, tissue)
     line, faces = setup.line, setup.faces
     tail = float(line.axial(projectile_points(setup)).min())

@@ -30,7 +30,7 @@ from __future__ import annotations
 import re
 import tomllib
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
@@ -46,7 +46,7 @@ class ConfigError(ValueError):
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)  # inf, nan: "finite number"
 
 
 class ModelConfig(_Strict):
@@ -70,6 +70,13 @@ class ModelConfig(_Strict):
         "closed_form", description="incompressible closed forms, or the compressible 3-D driver (slower)")
     fit_bulk_modulus: bool = Field(False, description="fit K too (needs forward = 'driver'); bulk_modulus is its start")
 
+    @field_validator("stability_range")
+    @classmethod
+    def _stretch_range(cls, v: tuple[float, float] | None) -> tuple[float, float] | None:
+        if v is not None and not 0 < v[0] < v[1]:
+            raise ValueError(f"stability_range = [lo, hi] needs stretches 0 < lo < hi (got [{v[0]:g}, {v[1]:g}])")
+        return v
+
     @model_validator(mode="after")
     def _bulk_needs_driver(self) -> "ModelConfig":
         if self.fit_bulk_modulus and self.forward != "driver":
@@ -87,7 +94,7 @@ class DataConfig(_Strict):
     mode: Literal[tuple(MODE_ALIASES)] | None = None  # type: ignore[valid-type]
     stress_unit: Literal["Pa", "kPa", "MPa", "GPa"] | None = None
     strain_unit: Literal["1", "-", "percent", "%"] | None = None
-    points: int = Field(20, ge=2, description="equally spaced points per curve (report: 20)")
+    points: int = Field(20, ge=2, le=10_000, description="equally spaced points per curve (report: 20)")
     positive_compression: bool = False
     name: str | None = None
 
@@ -103,7 +110,7 @@ class OptimizerConfig(_Strict):
     """``[optimizer]``: the global search (see :class:`tissuempm.calibration.optimizers.SearchSettings`)."""
 
     method: Literal["globalsearch", "differential_evolution"] = "globalsearch"
-    seed: int = 0
+    seed: int = Field(0, ge=0, le=2**32 - 1, description="seed of the random generator (NumPy: 0..2^32-1)")
     local_solver: Literal["slsqp", "trust-constr"] = "slsqp"
     trial_points: int | None = Field(None, ge=10, description="default 50 n (n free parameters)")
     stage1_points: int | None = Field(None, ge=2, description="default trial_points / 5")
@@ -124,6 +131,33 @@ class AnalysisConfig(_Strict):
     profile_points: int = Field(11, ge=3)
     bootstrap: int = Field(0, ge=0, description="residual-bootstrap replicates (0: none)")
     compare_terms: list[int] = Field(default_factory=list, description="term counts compared by AIC/BIC")
+    forms: list[str] = Field(default_factory=list, description='model forms ranked by AIC/BIC and holdout, '
+                                                              'e.g. ["ogden:3", "yeoh", "neo_hookean"]')
+    holdout: list[str] = Field(default_factory=list, description="modes or data names left out of the "
+                                                                "model-selection fits and predicted")
+
+    @field_validator("forms")
+    @classmethod
+    def _form_specs(cls, v: list[str]) -> list[str]:
+        from tissuempm.calibration.selection import parse_form
+
+        for spec in v:
+            parse_form(spec)
+        if len(set(v)) != len(v):
+            raise ValueError(f"forms lists a form twice: {v}")
+        return v
+
+    @field_validator("holdout", mode="before")
+    @classmethod
+    def _one_or_list(cls, v: object) -> object:
+        return [v] if isinstance(v, str) else v
+
+    @model_validator(mode="after")
+    def _holdout_needs_forms(self) -> "AnalysisConfig":
+        if self.holdout and not self.forms:
+            raise ValueError(f"holdout = {self.holdout} needs forms = [...] (the held-out data are predicted by "
+                             "the model-selection fits)")
+        return self
 
 
 class OutputConfig(_Strict):
@@ -133,7 +167,8 @@ class OutputConfig(_Strict):
                                                 "config file stem in lowercase, other characters replaced by _)")
     title: str | None = None
     plots: bool = True
-    plot_rates: list[float] = Field(default_factory=list, description="rates [1/s] of the -30..+30 % plot")
+    plot_rates: list[Annotated[float, Field(gt=0)]] = Field(default_factory=list,
+                                                            description="rates [1/s] (> 0) of the -30..+30 % plot")
     lsdyna_units: Literal["SI", "mm-ms-kg", "mm-s-tonne"] = "SI"
 
     @field_validator("name")
@@ -175,11 +210,19 @@ def _format(err: ValidationError, path: Path) -> str:
 
 def load_config(path: str | Path) -> CalibrationConfig:
     """Read and validate a config file (raises :class:`ConfigError` with every problem listed)."""
+    from tissuempm.safety import InputLimitError, input_file, parse_toml
+
     path = Path(path)
+    try:
+        input_file(path, "config file")  # a FIFO would block
+    except InputLimitError as err:
+        raise ConfigError(str(err)) from None
     if not path.is_file():
         raise ConfigError(f"config file {str(path)!r} " + ("is a folder" if path.is_dir() else "does not exist"))
     try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+        raw = parse_toml(path.read_text(encoding="utf-8"), str(path))
+    except InputLimitError as err:
+        raise ConfigError(str(err)) from None
     except UnicodeDecodeError as err:
         raise ConfigError(f"{path}: not a text (UTF-8) TOML file: undecodable byte at position {err.start}") from None
     except OSError as err:

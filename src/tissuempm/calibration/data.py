@@ -224,6 +224,10 @@ def strain_factor(unit: str) -> float:
         raise DataError(f"unknown strain unit {unit!r}: valid are 1, -, percent, %") from None
 
 
+MAX_ROWS = 1_000_000
+"""Most data rows of one CSV file (a resampled curve has ``points`` of them)."""
+
+
 def read_csv(
     path: str | Path,
     *,
@@ -258,11 +262,17 @@ def read_csv(
     name
         Base name of the data sets (default: the file stem).
     """
+    from tissuempm.safety import InputLimitError, input_file
+
     path = Path(path)
+    try:
+        input_file(path, "data file")  # a FIFO would block; 1e8 rows would take minutes to refuse
+    except InputLimitError as err:
+        raise DataError(str(err)) from None
     if not path.is_file():
         raise DataError(f"data file {str(path)!r} does not exist" + (" (it is a folder)" if path.is_dir() else ""))
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # a spreadsheet's byte-order mark is not part of the header
     except UnicodeDecodeError as err:
         raise DataError(f"{path}: not a text (UTF-8) CSV file: undecodable byte at position {err.start}") from None
     except OSError as err:
@@ -283,6 +293,9 @@ def read_csv(
         body.append(line)
     if not body:
         raise DataError(f"{path}: no header row and no data")
+    if len(body) > MAX_ROWS + 1:
+        raise DataError(f"{path}: {len(body) - 1:,} data rows, more than the {MAX_ROWS:,} a data file may have: "
+                        "thin the data out (a curve needs tens to hundreds of points)")
     rows = list(csv.reader(io.StringIO("\n".join(body))))
     header = [h.strip() for h in rows[0]]
     cols = {}

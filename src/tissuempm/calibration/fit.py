@@ -12,7 +12,7 @@ Example
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -20,6 +20,7 @@ import numpy as np
 from tissuempm.calibration.constraints import STABILITY_MODES, Constraints
 from tissuempm.calibration.cost import CostFunction
 from tissuempm.calibration.data import Curve
+from tissuempm.calibration import diagnostics
 from tissuempm.calibration.forms import ModelForm, modulus_scale, time_range
 from tissuempm.calibration.forward import DEFAULT_MAX_INCREMENT, shear_stretches
 from tissuempm.calibration.optimizers import LocalMinimum, Problem, SearchResult, SearchSettings, search
@@ -111,12 +112,31 @@ class FitResult:
         """Model stress [Pa] per data set at the optimum."""
         return self.objective.predictions(self.theta)
 
+    def at_bound(self) -> dict[str, str | None]:
+        """``{name: "lower" | "upper" | None}``: parameters ending on a bound
+        (:func:`~tissuempm.calibration.diagnostics.at_bound`)."""
+        return diagnostics.at_bound(self.form, self.theta)
+
+    def warnings(self) -> list[str]:
+        """Not converged, parameters on a bound, degenerate terms (:func:`~tissuempm.calibration.diagnostics.fit_warnings`;
+        cached for the current parameters and optimality)."""
+        key = (tuple(self.theta), self.optimality.relative)
+        cache = self.__dict__.get("_warnings")
+        if cache is None or cache[0] != key:
+            cache = (key, diagnostics.fit_warnings(self))
+            self.__dict__["_warnings"] = cache
+        return list(cache[1])
+
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary: parameters (SI), cost, costs, material, minima, search."""
+        """JSON-ready summary: parameters (SI), cost, costs, bounds, warnings, material, minima, search."""
+        src = diagnostics.bound_sources(self.form)
         return {
             "model": self.form.describe(),
             "parameters": dict(self.parameters),
             "units": dict(self.units),
+            "at_bound": self.at_bound(),
+            "bounds": {p.name: {"lower": p.lower, "upper": p.upper, "source": src[p.name]} for p in self.form.params},
+            "warnings": self.warnings(),
             "cost": self.cost,
             "costs": {c.name: float(o) for c, o in zip(self.curves, self.costs)},
             "material": self.material.to_dict(),
@@ -184,6 +204,7 @@ def fit(
     max_increment: float = DEFAULT_MAX_INCREMENT,
     forward: str = "closed_form",
     progress: Callable[[int, int, float], None] | None = None,
+    widen_bounds: bool = True,
 ) -> FitResult:
     """Fit ``form`` to ``curves`` with a constrained global search (seed 004 Sec. 2.3).
 
@@ -191,8 +212,58 @@ def fit(
     Returns the best feasible minimum, polished to a KKT point (:func:`~tissuempm.calibration.optimizers.polish_minima`;
     its residual is ``FitResult.optimality``), as a new frozen material; raises RuntimeError when
     no local run ends at parameters satisfying every constraint.
+
+    When the optimum ends on a *default* bound that may be widened (``widen_bounds``;
+    :mod:`~tissuempm.calibration.diagnostics`), that bound is widened one step and the search is
+    repeated with the same settings, its first local run starting from the previous optimum, at most
+    :data:`~tissuempm.calibration.diagnostics.MAX_WIDENINGS` times. The lower-cost result is returned;
+    every step (bounds before and after, cost and parameters before and after) is recorded in
+    ``statistics["widening"]``. User bounds are never widened.
     """
     settings = settings or SearchSettings()
+    kw = dict(stability_range=stability_range, stability_modes=stability_modes, max_increment=max_increment,
+              forward=forward)
+    result = _fit_once(form, curves, settings, progress=progress, **kw)
+    steps: list[dict[str, Any]] = []
+    while widen_bounds and len(steps) < diagnostics.MAX_WIDENINGS:
+        hits = result.at_bound()
+        w = diagnostics.widen(result.form, hits)
+        if w is None:
+            break
+        form2, changes = w
+        try:
+            r2 = _fit_once(form2, curves, replace(settings, start=tuple(result.theta)), progress=progress, **kw)
+        except RuntimeError:
+            break
+        adopted = r2.cost <= result.cost
+        steps.append({
+            "widened": changes,
+            "before": {"cost": result.cost, "parameters": dict(result.parameters),
+                       "at_bound": {k: v for k, v in hits.items() if v}},
+            "after": {"cost": r2.cost, "parameters": dict(r2.parameters),
+                      "at_bound": {k: v for k, v in r2.at_bound().items() if v}},
+            "adopted": bool(adopted),
+        })
+        if not adopted:
+            break
+        result = r2
+    if steps:
+        result.statistics["widening"] = steps
+    return result
+
+
+def _fit_once(
+    form: ModelForm,
+    curves: Sequence[Curve],
+    settings: SearchSettings,
+    *,
+    stability_range: tuple[float, float] | None = None,
+    stability_modes: Sequence[str] = STABILITY_MODES,
+    max_increment: float = DEFAULT_MAX_INCREMENT,
+    forward: str = "closed_form",
+    progress: Callable[[int, int, float], None] | None = None,
+) -> FitResult:
+    """One constrained global search of :func:`fit` (no widening)."""
     problem = build_problem(form, curves, stability_range=stability_range, stability_modes=stability_modes,
                             max_increment=max_increment, forward=forward)
     res = search(problem, settings, progress)

@@ -91,8 +91,8 @@ def _elastic_params(form: str, terms: int, S: float) -> list[Param]:
     if form == "mooney_rivlin":
         return [Param("C10", "Pa", -big, big, modulus=True), Param("C01", "Pa", -big, big, modulus=True)]
     if form == "yeoh":
-        names = ("C10", "C20", "C30")[:terms]
-        return [Param(n, "Pa", -big, big, modulus=True) for n in names]
+        names = ("C10", "C20", "C30")[:terms]  # the Yeoh material requires C10 > 0 (initial shear modulus 2 C10)
+        return [Param(n, "Pa", 1e-6 * S if n == "C10" else -big, big, modulus=True) for n in names]
     if form == "reduced_polynomial":
         return [Param(f"C[{i}]", "Pa", -big, big, modulus=True) for i in range(terms)]
     if form == "polynomial":
@@ -140,6 +140,10 @@ class ModelForm:
         Fixed material fields (``K``, ``density``, ``nu``, ``volumetric``, HGO's extras, ...).
     bounds
         User bounds ``{name: (lo, hi)}``; ``name`` is a field (all its terms) or ``field[i]``.
+    widened
+        Default bounds replaced by wider ones ``{name: (lo, hi)}`` (set by
+        :func:`tissuempm.calibration.diagnostics.widen` when a fit ends on a default bound; user
+        ``bounds`` take precedence).
     fit_bulk_modulus
         Fit the bulk modulus ``K`` too (log scale, default bounds [0.3 S, 1e5 S]: Poisson's ratio
         from -0.29 to 0.499995 for a shear modulus equal to S; start: the fixed ``K``); only the
@@ -155,6 +159,7 @@ class ModelForm:
     fixed: dict[str, Any] = field(default_factory=dict)
     bounds: dict[str, tuple[float, float]] = field(default_factory=dict)
     fit_bulk_modulus: bool = False
+    widened: dict[str, tuple[float, float]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.form not in FORMS:
@@ -176,6 +181,10 @@ class ModelForm:
         for j in range(self.prony_terms):
             params.append(Param(f"tau[{j}]", "s", t_lo, t_hi, log=True))
         by_name = {p.name: i for i, p in enumerate(params)}
+        for key, (lo, hi) in self.widened.items():
+            if key in by_name:
+                p = params[by_name[key]]
+                params[by_name[key]] = Param(p.name, p.unit, float(lo), float(hi), p.log, p.modulus)
         for key, (lo, hi) in self.bounds.items():
             hits = [i for i, p in enumerate(params) if p.name == key or p.field == key]
             if not hits:
@@ -237,13 +246,19 @@ class ModelForm:
         return out
 
     def default_start(self) -> np.ndarray:
-        """A neutral, valid start point: moduli sharing the scale, alpha = +-2, g_j = 0.5/M,
+        """A neutral, valid start point: moduli sharing the scale (Yeoh and reduced polynomial: the
+        neo-Hookean solid C10 = S/2, higher orders 0), alpha = +-2, g_j = 0.5/M,
         tau_j spread geometrically over their range (all clipped into the bounds)."""
         mod = [p for p in self.params if p.modulus]
         out = []
         n_alpha = 0
+        series = self.form in ("yeoh", "reduced_polynomial")
         for j, p in enumerate(self.params):
-            if p.modulus:
+            if p.modulus and series:
+                # the neo-Hookean solid of the data's modulus (G0 = 2 C10 = S): higher orders start at 0, since
+                # (I1 - 3)^i of large-stretch data (Treloar: I1 - 3 = 50) makes an equal share of S dominate
+                v = 0.5 * self.scale if j == mod[0] else 0.0
+            elif p.modulus:
                 v = self.scale / max(len(mod), 1)
             elif p.field == "alpha":
                 v = 2.0 if n_alpha % 2 == 0 else -2.0

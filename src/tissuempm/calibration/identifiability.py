@@ -41,20 +41,32 @@ def jacobian(result: FitResult, theta: np.ndarray | None = None, rel_step: float
 
 
 def standard_errors(result: FitResult) -> dict[str, Any]:
-    """Standard errors, relative errors, correlation matrix and condition number at the optimum."""
-    J = jacobian(result)
+    """Standard errors, relative errors, correlation matrix and condition number at the optimum.
+
+    A parameter at a bound (:meth:`FitResult.at_bound`) has no linearized standard error: the
+    optimum is a constrained one there, ``se`` is NaN (``null`` in JSON) and ``at_bound`` names the
+    side; the other parameters' errors are computed with it held at its bound (Jacobian columns of
+    the free parameters only).
+    """
+    J_all = jacobian(result)
     r = result.objective.residuals(result.theta)
+    hits = result.at_bound()
+    names = result.form.names
+    free = [i for i, n in enumerate(names) if hits[n] is None]
+    J = J_all[:, free]
     n, p = J.shape
     ssr = float(r @ r)
     s2 = ssr / (n - p) if n > p else np.nan
     JtJ = J.T @ J
-    cov = s2 * np.linalg.pinv(JtJ)
+    cov_f = s2 * np.linalg.pinv(JtJ) if p else np.zeros((0, 0))
+    k = len(names)
+    cov = np.full((k, k), np.nan)
+    cov[np.ix_(free, free)] = cov_f
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(se, se)
-    names = result.form.names
-    Js = J * np.abs(result.theta)[None, :]  # relative sensitivities
-    ev = np.linalg.eigvalsh(Js.T @ Js)
+    Js = J * np.abs(result.theta[free])[None, :]  # relative sensitivities
+    ev = np.linalg.eigvalsh(Js.T @ Js) if p else np.zeros(0)
     return {
         "names": names,
         "value": result.theta.tolist(),
@@ -64,6 +76,7 @@ def standard_errors(result: FitResult) -> dict[str, Any]:
         "condition_number": float(ev.max() / max(ev.min(), 1e-300)) if ev.size else np.nan,
         "ssr": ssr,
         "dof": n - p,
+        "at_bound": {nm: hits[nm] for nm in names if hits[nm]},
     }
 
 

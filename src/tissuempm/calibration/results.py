@@ -8,9 +8,13 @@ Files written by :func:`write_results` into the output folder:
   ``tissuempm.library`` / ``tissuempm materials show`` and the MPM solver can use the material by name
   once the folder is registered (``TISSUEMPM_LIBRARY_PATH`` or ``tissuempm.library.register``);
 * ``<name>.inp``, ``<name>.k``, ``<name>.feb.xml``  solver cards (:mod:`tissuempm.calibration.export`);
-* ``fit.png``          data vs model per data set (weight-0 sets dashed: shown, not fitted);
-  ``rates.png`` the model over -30..+30 % strain at
-  several rates; ``profiles.png`` profile likelihoods when computed.
+* ``fit.png``          data vs model, one panel per loading mode with its own axis labels (weight-0
+  sets dashed: shown, not fitted); ``rates.png`` the model over -30..+30 % strain at
+  several rates; ``profiles.png`` profile likelihoods when computed; ``selection.png`` the
+  model-selection bars (:func:`plot_selection`) when several forms were compared.
+
+Every figure has the look of ``tissuempm materials plot`` (:mod:`tissuempm.materials.plots`:
+strain in %, stress in Pa, kPa or MPa by magnitude, readable legends, titles).
 """
 
 from __future__ import annotations
@@ -30,15 +34,28 @@ from tissuempm.calibration.export import write_all  # noqa: E402
 from tissuempm.calibration.fit import FitResult  # noqa: E402
 from tissuempm.calibration.forward import uniaxial_response  # noqa: E402
 from tissuempm.materials.base import Material  # noqa: E402
+from tissuempm.materials.plots import STYLE, finish_axes, stress_unit  # noqa: E402
+
+MODE_TITLES = {
+    "uniaxial": "uniaxial (tension +, compression -)",
+    "equibiaxial": "equibiaxial",
+    "pure_shear": "pure shear (planar tension)",
+    "simple_shear": "simple shear",
+}
+"""Panel titles of ``fit.png`` by loading mode."""
 
 
 def parameter_rows(result: FitResult) -> list[dict[str, Any]]:
-    """Rows ``{name, value, unit, se}`` of the fitted parameters."""
+    """Rows ``{name, value, unit, se, at_bound}`` of the fitted parameters (``se`` None at a bound)."""
     se = result.statistics.get("standard_errors", {}).get("se")
-    return [
-        {"name": n, "value": result.parameters[n], "unit": result.units[n], "se": (se[i] if se else None)}
-        for i, n in enumerate(result.form.names)
-    ]
+    hits = result.at_bound()
+    rows = []
+    for i, n in enumerate(result.form.names):
+        e = se[i] if se else None
+        e = None if (e is None or hits[n] or not math.isfinite(e)) else e
+        rows.append({"name": n, "value": result.parameters[n], "unit": result.units[n], "se": e,
+                     "at_bound": hits[n] or ""})
+    return rows
 
 
 def _json_default(o: Any) -> Any:
@@ -65,39 +82,88 @@ def to_json(result: FitResult) -> str:
     return json.dumps(_clean(json.loads(json.dumps(result.to_dict(), default=_json_default))), indent=2)
 
 
-def plot_fit(result: FitResult, path: Path) -> None:
-    """Data (markers) and model (lines) for every data set."""
-    fig, ax = plt.subplots(figsize=(6.4, 4.8))
+def plot_fit(result: FitResult, path: Path) -> list[dict[str, str]]:
+    """Data (markers) and model (lines), one panel per loading mode, labelled by mode and units.
+
+    Returns the panels' ``{mode, title, xlabel, ylabel}`` (stress unit by :func:`stress_unit`).
+    """
     preds = result.predictions()
-    for k, (c, s) in enumerate(zip(result.curves, preds)):
-        col = f"C{k % 10}"
-        ax.plot(c.strain, c.stress, "o", color=col, ms=4, label=f"{c.name} data")
-        ax.plot(c.strain, s, "--" if c.weight == 0 else "-", color=col,
-                label=f"model (O = {result.costs[k]:.3g}{'' if c.weight else ', w = 0: not fitted'})")
-    ax.set_xlabel("engineering strain (simple shear: gamma) [-]")
-    ax.set_ylabel("nominal stress (simple shear: tau) [Pa]")
-    ax.set_title(f"{result.form.describe()}: O = {result.cost:.4g}")
-    ax.legend(fontsize=6, ncol=2)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    modes = [m for m in MODE_TITLES if any(c.mode == m for c in result.curves)]
+    div, unit = stress_unit(np.concatenate([c.stress for c in result.curves] + list(preds)))
+    with matplotlib.rc_context(STYLE):
+        fig, axes = plt.subplots(1, len(modes), figsize=(5.2 * len(modes) + 0.6, 4.4), squeeze=False,
+                                 constrained_layout=True)
+        for ax, mode in zip(axes[0], modes):
+            for k, (c, s) in enumerate(zip(result.curves, preds)):
+                if c.mode != mode:
+                    continue
+                col = f"C{k % 10}"
+                ax.plot(100 * c.strain, c.stress / div, "o", color=col, ms=4, label=f"{c.name} (data)")
+                ax.plot(100 * c.strain, s / div, "--" if c.weight == 0 else "-", color=col,
+                        label=f"model, O = {result.costs[k]:.3g}" + ("" if c.weight else " (w = 0: not fitted)"))
+            if mode == "simple_shear":
+                ax.set(xlabel="shear strain gamma [%]", ylabel=f"shear stress tau [{unit}]")
+            else:
+                ax.set(xlabel="engineering strain [%]", ylabel=f"nominal stress P [{unit}]")
+            ax.set_title(MODE_TITLES[mode])
+            finish_axes(ax)
+        fig.suptitle(f"{result.form.describe()}: total cost O = {result.cost:.4g}")
+        fig.savefig(path, dpi=120)
+    panels = [{"mode": m, "title": a.get_title(), "xlabel": a.get_xlabel(), "ylabel": a.get_ylabel()}
+              for m, a in zip(modes, axes[0])]
     plt.close(fig)
+    return panels
 
 
 def plot_rates(
-    material: Material, rates: list[float | None], path: Path, strain: float = 0.3, forward: str = "closed_form"
-) -> None:
-    """Model nominal stress over -strain..+strain at several strain rates (uniaxial), by the fit's forward model."""
+    material: Material, rates: list[float | None], path: Path, strain: float = 0.3, forward: str = "closed_form",
+    title: str = "",
+) -> dict[str, str]:
+    """Model nominal stress over -strain..+strain at several strain rates (uniaxial), by the fit's forward model.
+
+    Returns the panel's ``{title, xlabel, ylabel}``."""
     eps = np.linspace(-strain, strain, 121)
-    fig, ax = plt.subplots(figsize=(6.4, 4.8))
-    for r in rates:
-        ax.plot(eps, uniaxial_response(material, eps, r, forward=forward),
-                label="quasi-static" if r is None else f"{abs(r):g} /s")
-    ax.axhline(0, color="k", lw=0.5)
-    ax.set_xlabel("engineering strain [-]")
-    ax.set_ylabel("nominal stress [Pa]")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    curves = [(r, uniaxial_response(material, eps, r, forward=forward)) for r in rates]
+    div, unit = stress_unit(np.concatenate([p for _, p in curves]))
+    with matplotlib.rc_context(STYLE):
+        fig, ax = plt.subplots(figsize=(6.4, 4.8), constrained_layout=True)
+        for r, P in curves:
+            ax.plot(100 * eps, P / div, label="quasi-static" if r is None else f"{abs(r):g} 1/s")
+        ax.set(xlabel="engineering strain [%]", ylabel=f"nominal stress [{unit}]",
+               title="uniaxial response at the data's strain rates")
+        finish_axes(ax, "strain rate")
+        fig.suptitle(title or material.kind)
+        fig.savefig(path, dpi=120)
+    labels = {"title": ax.get_title(), "xlabel": ax.get_xlabel(), "ylabel": ax.get_ylabel(),
+              "suptitle": fig.get_suptitle()}
+    plt.close(fig)
+    return labels
+
+
+def plot_selection(selection: dict[str, Any], path: Path) -> None:
+    """Model selection: Delta AIC and Delta BIC per form (left) and the held-out or fitted cost (right)."""
+    rows = selection["rows"]
+    labels = [r["label"] for r in rows]
+    y = np.arange(len(rows))
+    with matplotlib.rc_context(STYLE):
+        fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 0.45 * len(rows) + 2.2), constrained_layout=True)
+        a1.barh(y - 0.2, [r["delta_aic"] for r in rows], 0.4, label="Delta AIC")
+        a1.barh(y + 0.2, [r["delta_bic"] for r in rows], 0.4, label="Delta BIC")
+        a1.set(yticks=y, yticklabels=labels, xlabel="difference to the best form (lower is better)",
+               title=f"information criteria (n = {rows[0]['n']} points)")
+        a1.invert_yaxis()
+        finish_axes(a1)
+        if selection.get("holdout"):
+            a2.barh(y, [r["holdout_cost"] for r in rows], 0.6, color="C2")
+            a2.set(title="prediction of the held-out data: " + ", ".join(selection["holdout"]),
+                   xlabel="held-out cost sum O_m (lower is better)")
+        else:
+            a2.barh(y, [r["cost"] for r in rows], 0.6, color="C2")
+            a2.set(title="fitted cost", xlabel="total cost O")
+        a2.set(yticks=y, yticklabels=labels)
+        a2.invert_yaxis()
+        fig.suptitle("model selection: which form the data support")
+        fig.savefig(path, dpi=120)
     plt.close(fig)
 
 
@@ -139,8 +205,9 @@ def write_results(
     files: dict[str, str] = {}
     (out / "result.json").write_text(to_json(result))
     files["json"] = str(out / "result.json")
-    lines = ["name,value,unit,se"] + [
-        f"{r['name']},{r['value']!r},{r['unit']},{'' if r['se'] is None else repr(r['se'])}" for r in parameter_rows(result)
+    lines = ["name,value,unit,se,at_bound"] + [
+        f"{r['name']},{r['value']!r},{r['unit']},{'' if r['se'] is None else repr(r['se'])},{r['at_bound']}"
+        for r in parameter_rows(result)
     ]
     (out / "parameters.csv").write_text("\n".join(lines) + "\n")
     files["table"] = str(out / "parameters.csv")
@@ -156,8 +223,13 @@ def write_results(
         plot_fit(result, out / "fit.png")
         files["fit_plot"] = str(out / "fit.png")
         rates = plot_rates_list or sorted({abs(c.strain_rate) for c in result.curves if c.strain_rate}) or [None]
-        plot_rates(result.material, list(rates), out / "rates.png", forward=result.objective.forward)
+        plot_rates(result.material, list(rates), out / "rates.png", forward=result.objective.forward,
+                   title=f"{title or name}: {result.form.describe()}")
         files["rates_plot"] = str(out / "rates.png")
+        selection = result.statistics.get("selection")
+        if selection and selection.get("rows"):
+            plot_selection(selection, out / "selection.png")
+            files["selection_plot"] = str(out / "selection.png")
         profiles = result.statistics.get("profiles")
         if profiles:
             plot_profiles(profiles, out / "profiles.png")

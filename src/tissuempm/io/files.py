@@ -28,13 +28,21 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         tmp.unlink(missing_ok=True)
 
 
+NAME_MAX = 255
+"""Longest file or folder name [bytes] of the common file systems (ext4, XFS, APFS, NTFS)."""
+
+
 def folder_problem(folder: str | Path) -> str | None:
     """Why files cannot be written in ``folder`` (created when missing), or None when they can.
 
     Looks at the folder or its nearest existing parent: a file there, or no write
-    permission, is a problem. Creates nothing.
+    permission, is a problem; so is a component longer than :data:`NAME_MAX` bytes. Creates nothing.
     """
     folder = Path(folder)
+    for part in folder.parts:
+        size = len(os.fsencode(part))
+        if size > NAME_MAX:
+            return f"its component {part[:40]!r}... is {size} bytes long: a file system allows {NAME_MAX}"
     existing = folder
     while not existing.exists() and existing != existing.parent:
         existing = existing.parent

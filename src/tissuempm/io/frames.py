@@ -13,19 +13,20 @@ from typing import Any
 FRAME_FIELDS: tuple[str, ...] = (
     "velocity", "stress", "pressure", "von_mises", "J", "F", "L", "fiber", "fiber_current", "fiber_stretch",
     "failure", "state", "material", "body", "field", "fixed", "mass", "volume0", "size", "work", "reaction",
-    "x0", "id", "xref", "Fref",
+    "x0", "id", "xref", "Fref", "peak_mps", "peak_mps_time", "peak_von_mises", "peak_von_mises_time",
 )  # fmt: skip
 """Names a ``fields`` list may hold (besides ``all``)."""
 
 DEFAULT_FRAME_FIELDS: tuple[str, ...] = (
     "velocity", "pressure", "von_mises", "J", "fiber_current", "fiber_stretch", "failure", "state", "material", "body",
-    "mass", "size", "x0", "id",
+    "mass", "size", "x0", "id", "peak_mps", "peak_mps_time", "peak_von_mises", "peak_von_mises_time",
 )  # fmt: skip
 """Frame fields when ``[run] fields`` is not given: what the examples colour by (failure code,
 von Mises stress, fiber stretch, ...) and what ``tissuempm wound`` needs (mass, size, reference
 position x0: :data:`tissuempm.analysis.frames.REQUIRED_FIELDS`), and ``id`` (the particle's index at
 seeding, which follows it once others are removed: :mod:`tissuempm.mpm.removal`); about 95 bytes
-per particle instead of about 230 for all."""
+per particle instead of about 230 for all. The tracked peaks (``peak_mps``, ``peak_von_mises`` and
+their ``_time``: :mod:`tissuempm.mpm.tracking`) are written when the run tracks them."""
 
 
 def check_fields(names: Iterable[str]) -> list[str]:

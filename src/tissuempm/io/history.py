@@ -12,7 +12,8 @@ particles; NaN once it has none left); for each removal reason (``outflow``, ``e
 :mod:`tissuempm.mpm.removal`) what the removed deformable particles took with them so far,
 ``<reason>_count``, ``<reason>_mass`` [kg], ``<reason>_momentum_x/y/z`` [kg m/s] and
 ``<reason>_kinetic_energy`` [J]; ``removed_rigid_count`` (rigid-body particles removed) and
-``particles`` (particles left).
+``particles`` (particles left); then the columns of the ``extra`` providers (probe pressures and
+the head's motion of :mod:`tissuempm.io.head_history`).
 """
 
 import csv
@@ -21,17 +22,23 @@ from typing import Any
 
 import numpy as np
 
+from tissuempm.mpm.axisymmetric import whole_body
+
 from tissuempm.io.files import atomic_path
 
 
 class HistoryLog:
     """Appends rows to ``path``; ``rigid`` maps rigid material index -> name, ``free`` lists the
     free rigid bodies among them, ``removed`` names the entries of a snapshot's ``removed`` array
-    (``State.removed`` flattened: ``<reason>_<column>``)."""
+    (``State.removed`` flattened: ``<reason>_<column>``); ``extra`` adds the columns of providers
+    with ``columns``, ``values(data)`` and ``restore(row)`` (called with the last row a restart keeps)."""
 
     def __init__(self, path: str | Path, rigid: dict[int, str], free: tuple[int, ...] = (),
-                 removed: tuple[str, ...] = ()):  # fmt: skip
+                 removed: tuple[str, ...] = (), extra: tuple[Any, ...] = (), axisymmetric: bool = False):  # fmt: skip
         self.path = Path(path)
+        self.axisymmetric = axisymmetric
+        """Whether the snapshots are of an axisymmetric model (per-radian masses): the sums are
+        then reported for the whole body of revolution (:func:`tissuempm.mpm.axisymmetric.whole_body`)."""
         self.rigid = dict(rigid)
         self.free = tuple(free)
         self.removed = tuple(removed)
@@ -45,6 +52,9 @@ class HistoryLog:
             self.columns += [f"{q}_{self.rigid[i]}_{c}" for q in ("velocity", "position") for c in xyz]
         self.columns += list(self.removed)
         self.columns += ["removed_rigid_count", "particles"]
+        self.extra = tuple(extra)
+        for provider in self.extra:
+            self.columns += list(provider.columns)
 
     def row(self, data: dict[str, Any]) -> list[float]:
         """The row of one ``State.to_numpy()`` snapshot."""
@@ -72,6 +82,10 @@ class HistoryLog:
             out += list(v[sel][0]) + list((mass[sel, None] * x[sel]).sum(axis=0) / mass[sel].sum())
         out += list(np.asarray(data.get("removed", np.zeros(len(self.removed))), float).ravel()[: len(self.removed)])
         out += [int(data.get("removed_rigid", 0)), len(m)]
+        if self.axisymmetric:
+            out = whole_body(self.columns[: len(out)], out)
+        for provider in self.extra:
+            out += provider.values(data)
         return out
 
     def append(self, data: dict[str, Any]) -> None:
@@ -104,6 +118,9 @@ class HistoryLog:
             if not (len(r) == len(rows[0]) and _is_step(r[1]) and int(r[1]) <= step):
                 break
             keep.append(r)
+        if len(keep) > 1:
+            for provider in self.extra:
+                provider.restore({k: float(v) for k, v in zip(keep[0], keep[-1]) if k in provider.columns or k == "time"})
         with atomic_path(self.path) as tmp, open(tmp, "w", newline="") as f:
             csv.writer(f).writerows(keep)
 

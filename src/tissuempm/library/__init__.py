@@ -23,6 +23,7 @@ writes one (see docs/library.md).
 from tissuempm.library.catalog import (
     ENV_VAR,
     LibraryFileError,
+    NotLibraryFile,
     builtin_entries,
     entries,
     get,
@@ -40,6 +41,7 @@ __all__ = [
     "ENV_VAR",
     "LibraryEntry",
     "LibraryFileError",
+    "NotLibraryFile",
     "ModeStability",
     "Quantity",
     "StabilityReport",

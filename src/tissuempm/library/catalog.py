@@ -15,6 +15,12 @@ A file (``.toml`` or ``.json``) holds either one entry (the format written by
 parameter sets, ``[groups.<set>]``, with ``[[components]]`` naming their set,
 as the built-in files do (see ``docs/library.md``).
 
+A ``.toml``/``.json`` file that is no library file at all (none of the top-level keys
+``name``, ``components``, ``groups`` and no ``model`` table), such as the ``result.json`` that
+``tissuempm calibrate`` writes next to its library entry, is passed over with a debug log
+message, so that a fit's output folder can be listed in ``TISSUEMPM_LIBRARY_PATH`` as it is.
+:func:`register` of such a file by name raises :class:`NotLibraryFile`.
+
 A user file that cannot be read or parsed, holds an expression that cannot be
 evaluated (``"G / 0"``, ``"10.0 ** 400"``) or a parameter its law rejects is skipped
 with a warning naming the file and the problem; the other files still load.
@@ -25,6 +31,7 @@ import copy
 import difflib
 import functools
 import json
+import logging
 import os
 import tomllib
 import warnings
@@ -41,12 +48,26 @@ ENV_VAR = "TISSUEMPM_LIBRARY_PATH"
 """Environment variable listing user library directories."""
 SUFFIXES = (".toml", ".json")
 
+LIBRARY_KEYS = ("name", "components", "groups")
+"""Top-level keys of which a library file has at least one (or else a ``model`` table)."""
+log = logging.getLogger(__name__)
+
 _registered: list[Path] = []
 _file_cache: dict[Path, tuple[int, tuple[LibraryEntry, ...]]] = {}
 
 
 class LibraryFileError(ValueError):
     """A library file is malformed (names the file and the problem)."""
+
+
+class NotLibraryFile(LibraryFileError):
+    """A readable ``.toml``/``.json`` file that is not a library file (e.g. a fit's ``result.json``)."""
+
+
+def is_library_data(data: Any) -> bool:
+    """Whether parsed file content looks like a library file (one of :data:`LIBRARY_KEYS` or a
+    ``model`` table). A calibration ``result.json`` has a ``model`` string and none of the keys."""
+    return isinstance(data, dict) and (any(k in data for k in LIBRARY_KEYS) or isinstance(data.get("model"), dict))
 
 
 # ---------------------------------------------------------------------- parsing
@@ -61,6 +82,12 @@ def read_file(path: str | os.PathLike) -> tuple[LibraryEntry, ...]:
                 data = tomllib.load(fh)
     except (OSError, ValueError) as exc:
         raise LibraryFileError(f"{path}: cannot read library file: {exc}") from exc
+    except RecursionError:  # nesting deeper than the parser's recursion allows
+        raise LibraryFileError(f"{path}: cannot read library file: tables or arrays nested too deeply") from None
+    if not is_library_data(data):
+        keys = ", ".join(sorted(map(str, data))[:6]) if isinstance(data, dict) else type(data).__name__
+        raise NotLibraryFile(f"{path}: not a library file (top-level {keys}; a library file has name + model "
+                             f"or [[components]])")
     try:
         if "components" in data:
             return tuple(_table_entries(data, str(path)))
@@ -68,6 +95,8 @@ def read_file(path: str | os.PathLike) -> tuple[LibraryEntry, ...]:
             return (_record_entry(data, {}, str(path)),)
     except (KeyError, TypeError, ValueError) as exc:
         raise LibraryFileError(f"{path}: {exc}") from exc
+    except RecursionError:
+        raise LibraryFileError(f"{path}: a value is nested too deeply") from None
     raise LibraryFileError(f"{path}: neither a single entry (name + model) nor a table ([[components]])")
 
 
@@ -187,6 +216,9 @@ def catalog() -> dict[str, LibraryEntry]:
         for path in _files_in(location):
             try:
                 found = _cached_read(path)
+            except NotLibraryFile as exc:
+                log.debug("passing over %s", exc)
+                continue
             except LibraryFileError as exc:
                 warnings.warn(f"skipping user library file: {exc}", stacklevel=3)
                 continue
@@ -206,10 +238,22 @@ def register(path: str | os.PathLike) -> list[str]:
     p = Path(path).expanduser().resolve()
     if not p.exists():
         raise FileNotFoundError(f"{p}: no such library file or directory")
-    names = [e.name for f in _files_in(p) for e in _cached_read(f)]
+    if p.is_file():
+        names = [e.name for e in _cached_read(p)]
+    else:
+        names = [e.name for f in _files_in(p) for e in _entries_or_none(f)]
     if p not in _registered:
         _registered.append(p)
     return names
+
+
+def _entries_or_none(path: Path) -> tuple[LibraryEntry, ...]:
+    """Entries of a file found in a folder: none for a file that is no library file (debug note)."""
+    try:
+        return _cached_read(path)
+    except NotLibraryFile as exc:
+        log.debug("passing over %s", exc)
+        return ()
 
 
 def unregister(path: str | os.PathLike | None = None) -> None:

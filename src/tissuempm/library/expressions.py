@@ -35,20 +35,32 @@ _BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
 _UNARY = {ast.USub: operator.neg, ast.UAdd: operator.pos}
 
 
+MAX_LENGTH = 1000
+"""Longest expression [characters]: the library's longest is under 100; a longer one (``"-" * 100000 + "1"``,
+a 100,000-term sum) is refused before it is parsed, whose recursion it would exhaust."""
+
+
 class ExpressionError(ValueError):
-    """An expression in a data file is malformed or names an unknown input."""
+    """An expression in a data file is malformed, too long or nested too deeply, or names an unknown input."""
 
 
 def evaluate(text: str, names: Mapping[str, Any]) -> Any:
     """Value of the expression ``text`` with the inputs ``names`` (floats or lists of floats)."""
+    if len(text) > MAX_LENGTH:
+        raise ExpressionError(f"expression {text[:40]!r}... is {len(text):,} characters long: at most {MAX_LENGTH} "
+                              "are allowed")
     try:
         tree = ast.parse(text, mode="eval")
     except SyntaxError as exc:
         raise ExpressionError(f"malformed expression {text!r}: {exc.msg}") from None
+    except (RecursionError, MemoryError):  # Python's parser: "too many nested parentheses" and the like
+        raise ExpressionError(f"expression {text[:40]!r}... is nested too deeply") from None
     try:
         value = _eval(tree.body, names, text)
     except ExpressionError:
         raise
+    except RecursionError:
+        raise ExpressionError(f"expression {text[:40]!r}... is nested too deeply") from None
     except (ArithmeticError, ValueError, TypeError) as exc:  # G / 0, 10.0 ** 400, sqrt(-1), G + [1, 2]
         raise ExpressionError(f"{text!r} cannot be evaluated: {exc.args[-1] if exc.args else exc}") from None
     if not all(math.isfinite(v) for v in _numbers(value)):

@@ -121,6 +121,13 @@ def describe_range(meta: dict[str, Any]) -> str:
     return f"{text} {unit}".strip() if unit and unit != "1" else text
 
 
+def _is_sequence_field(f: dataclasses.Field) -> bool:
+    """Whether a parameter field holds a tuple of numbers (Ogden's ``mu``) rather than one number."""
+    if f.default is not dataclasses.MISSING:
+        return isinstance(f.default, (tuple, list))
+    return "tuple" in str(f.type) or "list" in str(f.type)
+
+
 def _check_value(owner: str, name: str, value: float, meta: dict[str, Any]) -> None:
     rng = describe_range(meta)
     if not isinstance(value, (int, float, np.floating, np.integer)) or isinstance(value, bool):
@@ -193,6 +200,9 @@ class Material:
             if "unit" not in f.metadata:
                 continue
             value = getattr(self, f.name)
+            if isinstance(value, (tuple, list)) and not _is_sequence_field(f):
+                raise ParameterError(f"{owner}.{f.name} = {value!r} is a list: {f.name} is one number "
+                                     f"(valid range: {describe_range(f.metadata)})")
             if isinstance(value, (tuple, list)):
                 if isinstance(value, list):
                     object.__setattr__(self, f.name, tuple(value))
@@ -419,4 +429,13 @@ def from_dict(data: dict[str, Any]) -> Material:
     for key, value in data.items():
         if isinstance(value, dict) and "kind" in value:
             data[key] = from_dict(value)  # composed laws (failure, viscoelastic wrappers)
+    for f in dataclasses.fields(cls):  # a composed law's inner law is never silently the example default
+        if f.name not in data and f.default is dataclasses.MISSING and f.default_factory is not dataclasses.MISSING:
+            default = f.default_factory()
+            if isinstance(default, Material):
+                raise ParameterError(
+                    f"{cls.kind} needs {f.name!r}: the law it wraps, e.g. {f.name} = {{ kind = \"{default.kind}\", ... }} "
+                    f"or {f.name} = {{ library = \"...\" }} (without it the {type(default).__name__} example "
+                    "parameters would be used)"
+                )
     return cls(**data)

@@ -12,6 +12,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from tissuempm.mpm.tracking import check_track
 from tissuempm.precision import check_precision
 
 ShapeFunction = Literal["linear", "gimp", "cpgimp", "bspline"]
@@ -107,6 +108,11 @@ class SolverConfig:
         taken out of the computation and its count, mass, momentum and kinetic energy are
         accumulated, :mod:`tissuempm.mpm.removal`) or ``"stop"`` (:class:`InstabilityError`,
         reason ``"left grid"``).
+    track
+        Per-particle peaks the solver tracks over the run (:data:`tissuempm.mpm.tracking.TRACKED`:
+        ``"peak_strain"``, the maximum principal Green-Lagrange strain, ``"peak_von_mises"``, the
+        von Mises stress; each with the time it was reached), updated after every step's stress
+        pass (:mod:`tissuempm.mpm.tracking`). Default none.
     """
 
     shape: ShapeFunction = "gimp"
@@ -130,6 +136,7 @@ class SolverConfig:
     bulk_viscosity_linear: float = 0.0
     bulk_viscosity_quadratic: float = 0.0
     outflow: str = "remove"
+    track: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.shape not in SHAPES:
@@ -172,6 +179,7 @@ class SolverConfig:
                 raise ValueError(f"{name} = {v!r} is out of range: valid range is [0, 10]")
         if self.outflow not in OUTFLOWS:
             raise ValueError(f"outflow = {self.outflow!r} is not valid: choose one of {', '.join(OUTFLOWS)}")
+        object.__setattr__(self, "track", check_track(self.track))
 
     @property
     def bulk_viscosity(self) -> bool:

@@ -111,6 +111,7 @@ from typing import Any, Literal
 import numpy as np
 import warp as wp
 
+from tissuempm.mpm.model import GHOST
 from tissuempm.mpm.kernels import BC_SLIP, UPDATE, boundary_function, node_indices, node_strides, on_face, vec4_helpers
 from tissuempm.precision import WarpTypes, kernel
 
@@ -329,17 +330,23 @@ def surface_function(t: WarpTypes, shape: str) -> Any:
 
 
 @functools.cache
-def contact_kernel(t: WarpTypes, mode: int, NF: int, shape: str = "gimp") -> Any:
+def contact_kernel(t: WarpTypes, mode: int, NF: int, shape: str = "gimp", axisymmetric: bool = False) -> Any:
     """Nodal contact correction for ``NF`` fields (module docstring) after a grid pass of ``mode``
     (:data:`~tissuempm.mpm.kernels.UPDATE`: corrects ``v_new`` and the FLIP increment ``v_inc``
     and adds rigid reactions; :data:`~tissuempm.mpm.kernels.VELOCITY`: corrects ``v_vel``), the gap
-    estimated with the kernel of ``shape`` (:func:`surface_function`)."""
+    estimated with the kernel of ``shape`` (:func:`surface_function`).
+
+    ``axisymmetric`` (:mod:`tissuempm.mpm.axisymmetric`): the nodal masses are per radian,
+    m_i ~ r_i A_i, so their gradient would tilt every normal away from the axis by about
+    atan(h / r); the normals are taken from the areal masses m_i / r_i instead (r_i the node's
+    radius, h/3 on the axis: the mean radius of the material under its half tent)."""
     s, vec3, vec4 = t.scalar, t.vec3, t.vec4
     apply_bc = boundary_function(t)
     v4 = vec4_helpers(t)
     pack, head = v4.pack, v4.head
     surface = surface_function(t, shape)
     KERNEL_REACH = 1.5 if shape == "bspline" else 1.0  # of a node's weight along an axis [cells]
+    AX = bool(axisymmetric)
 
     @wp.func
     def record_mass(g_mm: wp.array(dtype=vec4), g_c: wp.array(dtype=vec4), r: int, r_lo: int, r_hi: int):
@@ -353,12 +360,17 @@ def contact_kernel(t: WarpTypes, mode: int, NF: int, shape: str = "gimp") -> Any
     def mass_gradient(
         g_mm: wp.array(dtype=vec4), g_c: wp.array(dtype=vec4), n: int, f: int, sx: int, sy: int, r_lo: int, r_hi: int
     ):
-        """27-node Sobel difference of field ``f``'s nodal mass at node ``n`` (direction only)."""
+        """27-node Sobel difference of field ``f``'s nodal mass at node ``n`` (direction only; the
+        areal mass m / r when axisymmetric)."""
         g = vec3()
+        ix = n // sx - GHOST  # the node's x index (the radius in cells when axisymmetric)
         for i in range(3):
             for j in range(3):
                 for k in range(3):
                     m = record_mass(g_mm, g_c, (n + (i - 1) * sx + (j - 1) * sy + (k - 1)) * NF + f, r_lo, r_hi)
+                    if wp.static(AX):
+                        rcell = ix + i - 1
+                        m = m / wp.max(s(rcell), s(1.0 / 3.0))
                     wi = s(2 - (i - 1) * (i - 1))
                     wj = s(2 - (j - 1) * (j - 1))
                     wk = s(2 - (k - 1) * (k - 1))

@@ -18,6 +18,14 @@ That is what makes a stiff projectile cheap: a lead fragment (K = 46 GPa, c = 2,
 time step 30 x smaller than the myocardium it hits (c + |v| of about 65 m/s), for strains of the
 lead of order rho_t v^2 / K = 5e-5 at 50 m/s.
 
+Symmetry faces: a body that reaches a slip face (a symmetry plane: its particles' boxes touch or
+were clipped at it, as a sphere centred on the planes of a quarter model or on the axis of an
+axisymmetric one) stands for itself and its mirror image, whose forces across the face cancel its
+own: the component of V across each such face is held at its initial value, 0 (R and g have no
+effect along it). Without this the contact pressure on a quarter sphere's front pushed it
+toward both planes (V_x = V_z = -28 m/s within 50 us for a 180 m/s shot, held there by the
+faces), and the sideways motion of its nodal field dragged the block.
+
 Restarts: V is the velocity of the body's particles, written back into ``State.v`` each step, so
 a checkpoint carries it and :meth:`FreeBodies.attach` reads it back.
 
@@ -33,6 +41,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import warp as wp
 
+from tissuempm.mpm.kernels import BC_SLIP
 from tissuempm.precision import WarpTypes, kernel
 
 if TYPE_CHECKING:
@@ -78,6 +87,7 @@ class FreeBodies:
         flags[self.index] = 1
         self.flags = wp.array(flags, dtype=wp.int32, device=solver.device)
         self.mass = np.zeros(n_mat)
+        self.held = np.zeros((n_mat, 3), dtype=bool)  # axes across a symmetry face each body reaches
         self._sum = wp.zeros(n_mat, dtype=solver.t.vec3, device=solver.device)
         self.kern = free_body_kernels(solver.t)
 
@@ -89,15 +99,33 @@ class FreeBodies:
         mat = st.material.numpy()
         mass = np.asarray(st.mass.numpy(), dtype=float)
         v = np.asarray(st.v.numpy(), dtype=float)
+        x = np.asarray(st.x.numpy(), dtype=float)
+        half = 0.5 * np.asarray(st.size.numpy(), dtype=float)
         for i in self.index:
             sel = mat == i
             self.mass[i] = mass[sel].sum()
             if not np.any(sel):
                 continue
+            self.held[i] = self._symmetry_axes(x[sel], half[sel])
             vb = v[sel]  # one velocity after a step (exact restarts); the momentum-weighted mean at the start
             s._rigid_velocity[i] = vb[0] if np.all(vb == vb[0]) else (mass[sel, None] * vb).sum(axis=0) / self.mass[i]
         s.rigid_vel.assign(s._rigid_velocity.astype(s.t.numpy))
         self._write(st)
+
+    def _symmetry_axes(self, x: np.ndarray, half: np.ndarray) -> np.ndarray:
+        """Axes a body's velocity may not have a component along: those of the slip faces that its
+        particle boxes (centres ``x``, half sizes ``half``) reach within 1 % of a box."""
+        s = self.solver
+        kinds = s.bc_kind.numpy()
+        lo, hi = np.asarray(s.model.grid.origin, float), np.asarray(s.model.grid.upper, float)
+        held = np.zeros(3, dtype=bool)
+        for a in range(3):
+            reach = 1.01 * half[:, a]
+            if kinds[2 * a] == int(BC_SLIP) and np.any(x[:, a] - reach <= lo[a]):
+                held[a] = True
+            if kinds[2 * a + 1] == int(BC_SLIP) and np.any(x[:, a] + reach >= hi[a]):
+                held[a] = True
+        return held
 
     def _write(self, st: "State") -> None:
         s = self.solver
@@ -114,6 +142,6 @@ class FreeBodies:
         g = np.array([s._gravity[0], s._gravity[1], s._gravity[2]], dtype=float)
         for i in self.index:
             if self.mass[i] > 0:
-                s._rigid_velocity[i] += dt * (R[i] / self.mass[i] + g)
+                s._rigid_velocity[i] += np.where(self.held[i], 0.0, dt * (R[i] / self.mass[i] + g))
         s.rigid_vel.assign(s._rigid_velocity.astype(s.t.numpy))
         self._write(st)

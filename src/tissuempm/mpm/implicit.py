@@ -172,6 +172,8 @@ class ImplicitSolver(ExplicitSolver):
             raise ValueError("grid = 'no_reset' is available with the explicit integrator only")
         if self.free is not None:
             raise ValueError("free rigid bodies (rigid materials with free = true) need the explicit integrator")
+        if model.axisymmetric:
+            raise ValueError("axisymmetric models need the explicit integrator (the implicit tangent is 3-D only)")
         if self.volumetric is not None or self.config.bulk_viscosity:  # none by default (default_anti_locking)
             raise ValueError("anti_locking = 'fbar' and the bulk viscosity are available with the explicit integrator only")
         self.implicit = implicit

@@ -101,18 +101,20 @@ def node_indices(n: int, dims: wp.vec3i):
 
 
 @functools.cache
-def transfer_kernels(t: WarpTypes, shape: str, n_fields: int = 1) -> SimpleNamespace:
+def transfer_kernels(t: WarpTypes, shape: str, n_fields: int = 1, axisymmetric: bool = False) -> SimpleNamespace:
     """Particle-grid transfer and grid kernels for types ``t``, ``shape`` and ``n_fields``
-    velocity fields per node.
+    velocity fields per node; ``axisymmetric``: the meridian-plane kernels of
+    :mod:`tissuempm.mpm.axisymmetric` (hoop force in P2G, hoop rate in G2P).
 
     ``p2g``, ``grid`` and ``g2p`` are functions of the flags (and mode) returning
     kernels specialised at compile time (``wp.static``), so no flag is tested per node.
     """
     NF = n_fields
+    AX = bool(axisymmetric)
     return SimpleNamespace(
-        p2g=lambda flags: _p2g(t, shape, flags, NF),
+        p2g=lambda flags: _p2g(t, shape, flags, NF, AX),
         grid=lambda flags, mode: _grid(t, flags, mode, NF),
-        g2p=lambda flags: _g2p(t, shape, flags, NF),
+        g2p=lambda flags: _g2p(t, shape, flags, NF, AX),
         reaction=_reaction(t, shape, NF),
         rigid_speed=_rigid_speed(t),
         NP=STENCIL[shape],
@@ -266,7 +268,7 @@ def vec4_helpers(t: WarpTypes) -> SimpleNamespace:
 
 
 @functools.cache
-def _p2g(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
+def _p2g(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any:
     s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
     h = _helpers(t, shape, NF)
     stencil, field_of, NP = h.stencil, h.field_of, h.NP
@@ -307,7 +309,9 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
         rigid (v_c their material's velocity) and fixed (v_c = 0) particles in ``b_c``; with several
         velocity fields also every particle's position record in ``b_x`` (``scatter_position``:
         the nodal centres of mass of the contact gap, :mod:`tissuempm.mpm.contact`);
-        FORCE: (f, 0)_i = -sum V_p sigma_p grad S + sum S m_p b_p in ``b_f``.
+        FORCE: (f, 0)_i = -sum V_p sigma_p grad S + sum S m_p b_p in ``b_f``; axisymmetric (``AX``,
+        x the radius r, z the hoop direction theta, V_p per radian) also the hoop force
+        -sum S V_p sigma_theta,theta / r_p along x (:mod:`tissuempm.mpm.axisymmetric`, eq. (2)).
 
         Each particle scatters into its own velocity field's records (``field``).
 
@@ -345,8 +349,10 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
             V0 = pack(Vt[0], s(0.0))
             V1 = pack(Vt[1], s(0.0))
             V2 = pack(Vt[2], s(0.0))
+            if wp.static(AX):  # hoop force -V sigma_tt / r, weighted by S like a body force
+                bf = vec4(Vt[2][2] / x[p][0], s(0.0), s(0.0), s(0.0))
         if wp.static(flags & BODY):
-            bf = pack(m * body[p], s(0.0))
+            bf = bf + pack(m * body[p], s(0.0))
         fx = fixed[p] != 0
         # tensor-product factorisation: with grad S = (dx_i wy_j wz_k, wx_i dy_j wz_k, wx_i wy_j dz_k),
         # -V sigma grad S + S m b = wz_k fa_ij + dz_k fb_ij, fa_ij and fb_ij formed once per (i, j)
@@ -358,7 +364,7 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
                 if wp.static(flags & FORCE):
                     fa = (dx[i] * wy[j]) * V0 + (wx[i] * dy[j]) * V1
                     fb = wij * V2
-                if wp.static(flags & BODY):
+                if wp.static((flags & BODY) or (AX and (flags & FORCE))):
                     fa = fa + wij * bf
                 for k in range(NP):
                     n = nb + i * sx + j * sy + k * NF
@@ -519,7 +525,7 @@ def _grid(t: WarpTypes, flags: int, mode: int, NF: int) -> Any:
 
 
 @functools.cache
-def _g2p(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
+def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any:
     s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
     h = _helpers(t, shape, NF)
     stencil, field_of, NP = h.stencil, h.field_of, h.NP
@@ -565,7 +571,8 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
                   (the increments v_i^new - v_i^old are ``v_inc``, from the grid pass),
                   v_pic = sum S v_i^new (``reaction`` gives the constrained particles' reaction share).
         GRADIENT: L_p = sum v_i (x) grad S (v_i = ``v_grad``), F <- (I + dt L) F, check J > 0 for
-                  particles that carry stress (a completely failed, stress-free particle may invert:
+                  particles that carry stress; axisymmetric (``AX``): L_theta,theta = sum S v_i,r / r_p
+                  (:mod:`tissuempm.mpm.axisymmetric`, eq. (1)) (a completely failed, stress-free particle may invert:
                   it is counted, not an instability). With REFERENCE the gradients are those of the
                   reference configuration (``x`` = positions at the last reset, deformation
                   ``F_ref`` there): F <- F + dt L_0 F_ref with L_0 = sum v_i (x) grad_0 S, and
@@ -589,6 +596,7 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
             c0 = vec4()
             c1 = vec4()
             c2 = vec4()
+            c3 = vec4()  # axisymmetric: sum S v_i (the hoop rate)
             # tensor-product factorisation: sums over k first, then weighted by the (i, j) factors
             for i in range(NP):
                 for j in range(NP):
@@ -620,6 +628,8 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
                         c0 += (dx[i] * wy[j]) * sg
                         c1 += (wx[i] * dy[j]) * sg
                         c2 += wij * sd
+                        if wp.static(AX):
+                            c3 += wij * sg
             if wp.static(flags & MOVE):
                 vpic = head(vpic4)
                 if rigid:
@@ -641,6 +651,8 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int) -> Any:
                 vpic_p[p] = vpic
             if wp.static(flags & GRADIENT):
                 Lp = wp.matrix_from_cols(head(c0), head(c1), head(c2))  # L = sum v_i (x) grad S_i
+                if wp.static(AX):
+                    Lp[2, 2] = c3[0] / xp[0]  # v_r / r
                 if rigid:
                     Lp = mat33()
                 Fo = F[p]

@@ -248,12 +248,18 @@ class Model:
     contact
         Velocity fields and the contact law between them
         (:class:`~tissuempm.mpm.contact.Contact`); None: one field (all bodies bonded).
+    axisymmetric
+        The grid is the meridian plane of an axisymmetric problem (:mod:`tissuempm.mpm.axisymmetric`):
+        x the radius (the axis at x = 0), y the axis, z the hoop direction (one cell, slip on both
+        faces); particle volumes and masses are per radian. Needs ``origin[0] = 0``, one cell
+        along z and slip faces at x lower and at both z faces.
     """
 
     grid: Grid
     materials: list[Any]
     boundaries: list[GridBoundary] = field(default_factory=list)
     contact: Any = None
+    axisymmetric: bool = False
 
     def __post_init__(self) -> None:
         if not isinstance(self.grid, Grid):
@@ -272,6 +278,16 @@ class Model:
 
         if self.contact is not None and not isinstance(self.contact, Contact):
             raise TypeError(f"Model.contact = {self.contact!r}: must be a Contact or None")
+        if self.axisymmetric:
+            from tissuempm.mpm.axisymmetric import check_axisymmetric_model
+
+            check_axisymmetric_model(self.grid, self.boundaries)
+
+    @property
+    def volume_factor(self) -> float:
+        """Factor from the model's volumes, masses, forces and energies to the body's: 2 pi when
+        axisymmetric (they are per radian), else 1."""
+        return 2.0 * math.pi if self.axisymmetric else 1.0
 
     @property
     def n_fields(self) -> int:

@@ -43,6 +43,7 @@ from tissuempm.mpm import kernels as K
 from tissuempm.mpm.config import Control, SolverConfig
 from tissuempm.mpm.contact import contact_kernel
 from tissuempm.mpm.errors import InstabilityError
+from tissuempm.mpm.axisymmetric import scale_extensive, scale_removed
 from tissuempm.mpm.free_bodies import FreeBodies
 from tissuempm.mpm.launch import Launcher
 from tissuempm.mpm.model import Model, ParticleData, RigidMaterial
@@ -50,6 +51,7 @@ from tissuempm.mpm.reference_grid import ReferenceGrid, check_no_reset
 from tissuempm.mpm.removal import KEEP, OUTFLOW, UNSTABLE, classify_kernel, erosion_slots, removed_totals
 from tissuempm.mpm.shape_functions import GIMP_SHAPES
 from tissuempm.mpm.state import OPTIONAL_FIELDS, PARTICLE_FIELDS, REMOVAL_COLUMNS, REMOVAL_REASONS, State, warp_array
+from tissuempm.mpm.tracking import Tracker
 from tissuempm.mpm.volumetric import CellAverage
 from tissuempm.precision import cuda_driver_present, init_warp, warp_types
 
@@ -95,7 +97,13 @@ class ExplicitSolver:
             self.extra_fields = ("xref", "Fref")
         if cfg.bulk_viscosity:
             self.extra_fields += ("bulk_q", "bulk_work")
-        self.kern = K.transfer_kernels(self.t, cfg.shape, self.n_fields)
+        self.tracker = Tracker(self, cfg.track) if cfg.track else None  # per-particle peaks (mpm.tracking)
+        if self.tracker is not None:
+            self.extra_fields += self.tracker.fields
+        self.axisymmetric = model.axisymmetric
+        if self.axisymmetric and cfg.grid == "no_reset":
+            raise ValueError("axisymmetric models need grid = 'reset' (the grid without reset is 3-D only)")
+        self.kern = K.transfer_kernels(self.t, cfg.shape, self.n_fields, self.axisymmetric)
         grid = model.grid
         self.h = grid.cell_size
         self.dims = wp.vec3i(*grid.shape)
@@ -378,6 +386,9 @@ class ExplicitSolver:
             dt = min(dt, self.config.dt_max)
         if not math.isfinite(dt):
             raise InstabilityError("no finite time step: nothing moves and no law has a wave speed", reason="dt collapse")
+        if not dt > 0.0:  # a speed so large that it overflows (|v| = 1e300 m/s): dt = 0 would loop for ever
+            raise InstabilityError(f"no positive time step at t = {st.time:.6g} s: the max signal speed {vmax:.3e} m/s "
+                                   "is not finite (a velocity or modulus too large)", reason="dt collapse")
         if st.dt_ref is None:
             st.dt_ref = dt
         elif not (dt >= self.config.dt_min_fraction * st.dt_ref):
@@ -486,7 +497,7 @@ class ExplicitSolver:
         reactions after an UPDATE pass, the constrained velocity after a VELOCITY pass."""
         nf = self.n_fields
         s = self.t.scalar
-        kernel = self._ready(contact_kernel(self.t, mode, nf, self.config.shape))
+        kernel = self._ready(contact_kernel(self.t, mode, nf, self.config.shape, self.axisymmetric))
         v_vel = self.g_vgrad if mode == K.VELOCITY else self.g_vnew
         args = [
             self.g_mm, self.g_c, self.g_x, v_vel, self.g_vinc, self.g_react, self.law_kind, self.law_mu, self.law_gap,
@@ -563,7 +574,7 @@ class ExplicitSolver:
         out += [kern.g2p(f) for flags, shared in gathers for f in self._gather_passes(flags, shared)]
         if self.n_fields > 1:
             modes = sorted({m for _, m in grids})
-            out += [contact_kernel(self.t, mode, self.n_fields, self.config.shape) for mode in modes]
+            out += [contact_kernel(self.t, mode, self.n_fields, self.config.shape, self.axisymmetric) for mode in modes]
         out += [kern.reaction, kern.rigid_speed] + [k for _, _, mk, _ in self.laws for k in (mk.stress, mk.speed)]
         out += self.volumetric.kernels() if self.volumetric is not None else []
         return out + ([self.free.kern.sum_reactions, self.free.kern.set_velocity] if self.free is not None else [])
@@ -582,13 +593,15 @@ class ExplicitSolver:
     def _gather_and_stress(self, st: State, gather: list[Callable[[], None]], dt: float) -> None:
         """One parallel section: each chunk's ``gather`` tasks, then its stress update; the history
         buffers are swapped after it. With F-bar (:mod:`tissuempm.mpm.volumetric`) the cell averages
-        of the volume change need every chunk's gather: two sections, the cell sums between them."""
+        of the volume change need every chunk's gather: two sections, the cell sums between them.
+        Tracked peaks (:mod:`tissuempm.mpm.tracking`) follow each chunk's stress update."""
+        track = [self.tracker.tasks(st, dt)] if self.tracker is not None else []
         if self.volumetric is None:
-            self._per_chunk(gather, self._constitutive(st, dt))
+            self._per_chunk(gather, self._constitutive(st, dt), *track)
         else:
             self._per_chunk(gather, self.volumetric.measure_tasks(st, dt))
             self.volumetric.average(st)
-            self._per_chunk(self.volumetric.tasks(st, dt), self._constitutive(st, dt))
+            self._per_chunk(self.volumetric.tasks(st, dt), self._constitutive(st, dt), *track)
         st.history, st.history_next = st.history_next, st.history
 
     def _constitutive(self, st: State, dt: float) -> list[Callable[[], None]]:
@@ -798,11 +811,25 @@ class ExplicitSolver:
             ``fixed_reaction`` [N] (3,) on the fixed particles: the force the rest of the model
             exerts on them; ``inverted``: particles with J <= 0, which only completely failed,
             stress-free particles may reach (any other stops the run); ``particles``: how many
-            are left; ``removed`` {reason: {``count``, ``mass`` [kg], ``momentum`` [kg m/s] (3,),
+            are left; axisymmetric models report the whole body of revolution's extensive values
+            (2 pi times the per-radian sums, :func:`~tissuempm.mpm.axisymmetric.scale_extensive`); ``removed`` {reason: {``count``, ``mass`` [kg], ``momentum`` [kg m/s] (3,),
             ``kinetic_energy`` [J]}}: the deformable particles taken out so far per reason
             (``"outflow"``, ``"eroded"``; :mod:`tissuempm.mpm.removal`), so ``mass`` + removed mass
             is the initial mass; ``removed_rigid``: rigid-body particles taken out.
         """
+        out = self._diagnostics(state)
+        if self.axisymmetric:  # per radian -> the whole body of revolution
+            return scale_extensive(out, self.model.volume_factor)
+        return out
+
+    def removed_totals(self, state: State) -> dict[str, dict[str, Any]]:
+        """What left the computation so far, per reason (:func:`removed_summary`), for the whole
+        body when axisymmetric (the ``removed`` entry of :meth:`diagnostics`)."""
+        out = removed_summary(state.removed)
+        return scale_removed(out, self.model.volume_factor) if self.axisymmetric else out
+
+    def _diagnostics(self, state: State) -> dict[str, Any]:
+        """:meth:`diagnostics` in the model's own measure (per radian when axisymmetric)."""
         st = state
         mat = st.material.numpy()
         rigid = self.mat_rigid.numpy().astype(bool)[mat]

@@ -48,14 +48,20 @@ OPTIONAL_FIELDS: dict[str, tuple[str, tuple[int, ...]]] = {
     "acc": ("vec3", (3,)),
     "bulk_q": ("scalar", ()),
     "bulk_work": ("scalar", ()),
+    "peak_mps": ("scalar", ()),
+    "peak_mps_time": ("scalar", ()),
+    "peak_von_mises": ("scalar", ()),
+    "peak_von_mises_time": ("scalar", ()),
 }
 """Particle arrays that only some solvers carry (allocated when the solver lists them in
 ``extra_fields``): ``xref`` and ``Fref``, the positions [m] and deformation gradient at the last
 grid reset of a grid that is not reset every step (:mod:`tissuempm.mpm.reference_grid`), and
 ``acc``, the particle acceleration [m/s^2] of the implicit Newmark integrator
 (:mod:`tissuempm.mpm.implicit`), and ``bulk_q`` and ``bulk_work``, the artificial bulk viscosity's
-pressure [Pa] of the last step and the energy it has dissipated [J] (:class:`~tissuempm.mpm.config.SolverConfig`).
-They travel through sorting, :meth:`State.to_numpy` and restarts."""
+pressure [Pa] of the last step and the energy it has dissipated [J] (:class:`~tissuempm.mpm.config.SolverConfig`),
+and ``peak_mps``, ``peak_von_mises`` and their ``_time``, the peak maximum principal Green strain [-]
+and von Mises stress [Pa] over the run and when each was reached [s] (``SolverConfig.track``,
+:mod:`tissuempm.mpm.tracking`). They travel through sorting, :meth:`State.to_numpy` and restarts."""
 REMOVAL_REASONS: tuple[str, ...] = ("outflow", "eroded")
 """Why particles are taken out of a run (:meth:`State.remove`): ``"outflow"``, they left the grid
 through a face without a wall (``SolverConfig.outflow = "remove"``); ``"eroded"``, their law

@@ -18,7 +18,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tissuempm.mpm import Control, Grid, GridBoundary, ImplicitConfig, Model, ParticleData, SolverConfig
+from tissuempm.mpm import Control, Grid, GridBoundary, ImplicitConfig, Model, ParticleData, SolverConfig, State
+from tissuempm.mpm import blast
+from tissuempm.mpm.surface_loads import BlastLoad, detect_surface, surface_acceleration
 from tissuempm.scenarios.amplitude import Amplitude
 from tissuempm.scenarios.checks import check_bodies, check_size
 from tissuempm.scenarios.geometry import Shape, UniformFiber, Union, seed
@@ -39,6 +41,9 @@ class Loading:
         Material index -> (velocity [m/s], amplitude) of rigid drivers with an amplitude.
     boundary_velocity
         Boundary index (into ``Model.boundaries``) -> (velocity [m/s], amplitude).
+    blasts
+        Blast waves on surface particles (:class:`~tissuempm.mpm.surface_loads.BlastLoad`): with a
+        state, :meth:`at` adds their body accelerations (``Control.body_acceleration``).
 
     :meth:`at` gives the :class:`Control` (each load v a(t)) at a time. The runner evaluates
     it at the middle of each step, t + dt/2: the midpoint rule integrates a linear segment
@@ -51,9 +56,13 @@ class Loading:
     gravity: tuple[Vec3, Amplitude] | None = None
     rigid_velocity: dict[int, tuple[Vec3, Amplitude]] = field(default_factory=dict)
     boundary_velocity: dict[int, tuple[Vec3, Amplitude]] = field(default_factory=dict)
+    blasts: tuple[BlastLoad, ...] = ()
 
-    def at(self, time: float) -> Control:
-        """The loads at ``time`` [s]; loads without an amplitude keep their model and config values."""
+    def at(self, time: float, state: State | None = None) -> Control:
+        """The loads at ``time`` [s]; loads without an amplitude keep their model and config values.
+        The blast loads need the ``state`` (its positions and deformation): without it they are left out;
+        with it they are the mean over the step from ``state.time`` to 2 ``time`` - ``state.time``
+        (``time`` is the middle of the step, as the runner calls it)."""
 
         def scaled(load: tuple[Vec3, Amplitude]) -> Vec3:
             vector, amplitude = load
@@ -64,6 +73,8 @@ class Loading:
             gravity=None if self.gravity is None else scaled(self.gravity),
             rigid_velocity={i: scaled(load) for i, load in self.rigid_velocity.items()},
             boundary_velocity={i: scaled(load) for i, load in self.boundary_velocity.items()},
+            body_acceleration=None if not self.blasts or state is None else surface_acceleration(
+                list(self.blasts), state, state.time, max(state.time, 2.0 * time - state.time)),
         )
 
 
@@ -129,6 +140,7 @@ def solver_config(scenario: Scenario, device: str = "cpu") -> SolverConfig:
         reset_distance=s.reset_distance,
         reset_interval=s.reset_interval,
         outflow=scenario.run.outflow,
+        track=scenario.tracked(),
         anti_locking=s.anti_locking,
         bulk_viscosity_linear=s.bulk_viscosity.linear if s.bulk_viscosity is not None else 0.0,
         bulk_viscosity_quadratic=s.bulk_viscosity.quadratic if s.bulk_viscosity is not None else 0.0,
@@ -156,7 +168,7 @@ def build_model(scenario: Scenario) -> Model:
     materials = scenario.build_materials()
     for i, velocity in start.rigid_velocity.items():
         materials[i] = dataclasses.replace(materials[i], velocity=velocity)
-    return Model(grid, materials, boundaries, contact=scenario.contact_fields()[1])
+    return Model(grid, materials, boundaries, contact=scenario.contact_fields()[1], axisymmetric=g.axisymmetric)
 
 
 def seed_particles(scenario: Scenario, model: Model) -> tuple[ParticleData, np.ndarray]:
@@ -168,7 +180,8 @@ def seed_particles(scenario: Scenario, model: Model) -> tuple[ParticleData, np.n
     for i, body in enumerate(scenario.bodies):
         shape = body.shape.build()
         exclude = Union(tuple(claimed)) if claimed else None
-        x, vol, size = seed(shape, grid.origin, grid.cell_size, grid.shape, body.particles_per_cell, exclude)
+        x, vol, size = seed(shape, grid.origin, grid.cell_size, grid.shape, body.particles_per_cell, exclude,
+                            model.axisymmetric)
         if len(x) == 0:
             raise ScenarioError(f"body[{i}] ({body.name or body.material}) holds no particle inside the grid")
         claimed.append(shape)
@@ -197,7 +210,8 @@ def seed_particles(scenario: Scenario, model: Model) -> tuple[ParticleData, np.n
 def with_free_masses(scenario: Scenario, model: Model, particles: ParticleData, body: np.ndarray) -> Model:
     """``model`` with the density of each free rigid body whose mass M is given
     (:meth:`Scenario.free_masses`) set to M / V, V the volume of its seeded particles, so that
-    they weigh M (to round-off): a body clipped by a symmetry face weighs the M given."""
+    they weigh M (to round-off): a body clipped by a symmetry face weighs the M given (axisymmetric:
+    V the volume of revolution, 2 pi times the per-radian sum: M is the whole body's)."""
     masses = scenario.free_masses()
     if not masses:
         return model
@@ -205,7 +219,7 @@ def with_free_masses(scenario: Scenario, model: Model, particles: ParticleData, 
     for i, (mass, bodies) in masses.items():
         volume = float(particles.volume[np.isin(body, bodies)].sum())
         if volume > 0:  # a material no body uses has no particles to weigh
-            materials[i] = dataclasses.replace(materials[i], density=mass / volume)
+            materials[i] = dataclasses.replace(materials[i], density=mass / (volume * model.volume_factor))
     return dataclasses.replace(model, materials=materials)
 
 
@@ -220,4 +234,35 @@ def build(scenario: Scenario, device: str = "cpu") -> Problem:
     model = build_model(scenario)
     particles, body = seed_particles(scenario, model)
     model = with_free_masses(scenario, model, particles, body)
-    return Problem(solver_config(scenario, device), model, particles, list(scenario.materials), body, loading(scenario))
+    loads = dataclasses.replace(loading(scenario), blasts=blast_loads(scenario, particles, body))
+    return Problem(solver_config(scenario, device), model, particles, list(scenario.materials), body, loads)
+
+
+def blast_loads(scenario: Scenario, particles: ParticleData, body: np.ndarray) -> tuple[BlastLoad, ...]:
+    """The ``[[blast]]`` loads on the seeded ``particles`` (``body``: each one's body index): the exposed
+    surface of the bodies listed (:func:`~tissuempm.mpm.surface_loads.detect_surface`; the rigid
+    bodies' particles cover surface but carry no load) and the wave's parameters in SI."""
+    if not scenario.blasts:
+        return ()
+    names = scenario.body_names()
+    g = scenario.grid
+    upper = tuple(lo + n * g.cell_size for lo, n in zip(g.lower, g.cells))
+    out = []
+    for i, b in enumerate(scenario.blasts):
+        chosen = np.isin(body, [names.index(n) for n in b.bodies])
+        try:
+            surface = detect_surface(particles.x, particles.size, chosen, g.lower, upper)
+        except ValueError as e:
+            raise ScenarioError(f"blast[{i}].bodies = {b.bodies}: {e}") from None
+        if len(surface.index) == 0:
+            raise ScenarioError(f"blast[{i}].bodies = {b.bodies}: no exposed surface (every face touches another body)")
+        d = np.asarray(b.direction, float) / np.linalg.norm(b.direction)
+        if b.reference_point is None:  # the first surface particle the front meets
+            xs = particles.x[surface.index]
+            ref = tuple(float(c) for c in xs[int(np.argmin(xs @ d))])
+        else:
+            ref = b.reference_point
+        speed = b.front_speed if b.front_speed is not None else blast.shock_speed(b.peak, b.ambient, b.sound_speed)
+        out.append(BlastLoad(surface, particles.n, b.peak, b.duration, b.decay, tuple(float(c) for c in d),
+                             b.arrival_time, ref, speed, blast.reflected_peak(b.peak, b.ambient), b.reflection))  # fmt: skip
+    return tuple(out)

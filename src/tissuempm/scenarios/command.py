@@ -6,12 +6,14 @@ from typing import Annotated
 
 import typer
 from rich.console import Console
-from rich.markup import escape
 from rich.progress import BarColumn, Progress, ProgressColumn, Task, TextColumn, TimeElapsedColumn
 from rich.text import Text
 
+from tissuempm import stop
 from tissuempm.io import CheckpointError
+from tissuempm.safety import markup, message
 from tissuempm.scenarios import run_folder, runner
+from tissuempm.scenarios.progress_log import LineProgress
 from tissuempm.scenarios.run_folder import OutputFolderError
 from tissuempm.scenarios.schema import ScenarioError, load_scenario
 
@@ -20,7 +22,7 @@ console = Console(stderr=True)
 
 def _fail(error: Exception | str) -> typer.Exit:
     """Print ``error`` (its text verbatim: ``[run]`` is no markup) and return the exit of status 2 to raise."""
-    console.print(f"[red]error:[/red] {escape(str(error))}", highlight=False)
+    console.print(f"[red]error:[/red] {message(error)}", highlight=False)
     return typer.Exit(2)
 
 
@@ -57,7 +59,7 @@ def default_out(scenario: Path, configured: str | None) -> Path:
 def run(
     scenario: Annotated[Path, typer.Argument(help="Scenario TOML file (see docs/scenarios.md).")],
     out: Annotated[
-        Path | None, typer.Option("--out", "-o", help="Output folder (default: run.output or results/<name>).")
+        str | None, typer.Option("--out", "-o", help="Output folder (default: run.output or results/<name>).")
     ] = None,
     device: Annotated[str, typer.Option("--device", help="cpu or cuda.")] = "cpu",
     restart: Annotated[bool, typer.Option("--restart", help="Continue from the last checkpoint in the output folder.")] = False,
@@ -72,19 +74,22 @@ def run(
     """Run an MPM scenario: VTU frames + .pvd for ParaView, HDF5 checkpoints and summary.json.
 
     A folder holding another run is refused unless --overwrite (or --restart to continue it).
+    SIGTERM stops the run like Ctrl-C (exit 143; continue with --restart).
     """
+    if out is not None and not out.strip():
+        raise _fail("--out '': give the output folder's name (or leave --out out for the default)")
     try:
         sc = load_scenario(scenario, overrides)
-        out_dir = out if out is not None else default_out(scenario, sc.run.output)
+        out_dir = Path(out) if out is not None else default_out(scenario, sc.run.output)
         run_folder.check(out_dir, restart=restart, overwrite=overwrite)  # before the (slow) build
         job = runner.Runner(sc, out_dir, device=device)
     except (ScenarioError, CheckpointError, ValueError) as e:
         raise _fail(e) from None
     n = job.problem.particles.n
-    console.print(f"[bold]{escape(sc.name)}[/bold]: {n} particles, grid {job.problem.model.grid.shape} cells, "
-                  f"output {escape(str(out_dir))}")
+    console.print(f"[bold]{markup(sc.name)}[/bold]: {n} particles, grid {job.problem.model.grid.shape} cells, "
+                  f"output {markup(out_dir, None)}", highlight=False)
     for warning in job.warnings:
-        console.print(f"[yellow]warning:[/yellow] {escape(warning)}", highlight=False)
+        console.print(f"[yellow]warning:[/yellow] {message(warning)}", highlight=False)
 
     columns = (
         TextColumn("[progress.description]{task.description}"),
@@ -95,8 +100,10 @@ def run(
         _Eta(),
     )
     last: dict[str, float] = {"wall": 0.0}
+    plain = None if console.is_terminal else LineProgress(console.file)  # a log file: plain lines
     try:
-        with Progress(*columns, console=console, transient=False) as bar:
+        with stop.sigterm_as_interrupt(), Progress(*columns, console=console, transient=False,
+                                                   disable=plain is not None) as bar:
             task = bar.add_task("running", total=sc.run.end_time, t=_si_time(0.0), end=_si_time(sc.run.end_time), sps=0.0)
 
             def show(p: runner.Progress) -> None:
@@ -120,26 +127,29 @@ def run(
                 elif done == total:
                     bar.update(task, description="running")
 
-            result = job.run(restart=restart, progress=show, overwrite=overwrite, kernels=kernels)
+            result = job.run(restart=restart, progress=show if plain is None else plain, overwrite=overwrite,
+                             kernels=kernels if plain is None else plain.kernels)
     except (CheckpointError, OutputFolderError) as e:
         raise _fail(e) from None
     except OSError as e:  # the folder became unwritable or the disk is full while running
-        raise _fail(f"cannot write the output in {out_dir}: {e}; the last complete checkpoint is kept") from None
-    except KeyboardInterrupt:
-        console.print(f"[yellow]interrupted[/yellow]: continue with --restart (checkpoint in {escape(str(out_dir))})")
-        raise typer.Exit(130) from None
+        raise _fail(f"cannot write the output in {out_dir}: {e.strerror or e}; the last complete checkpoint is kept") from None
+    except KeyboardInterrupt as e:  # Ctrl-C, or SIGTERM (stop.Terminated) from a batch scheduler
+        what = "terminated (SIGTERM)" if isinstance(e, stop.Terminated) else "interrupted"
+        console.print(f"[yellow]{what}[/yellow]: continue with --restart (checkpoint in {markup(out_dir, None)})",
+                      highlight=False)
+        raise typer.Exit(stop.exit_status(e)) from None
 
     s = result.summary
     if result.status == "unstable":
-        console.print(f"[red]stopped, the run went unstable:[/red] {escape(result.message)}", highlight=False)
+        console.print(f"[red]stopped, the run went unstable:[/red] {message(result.message)}", highlight=False)
         console.print(
             f"last checkpoint at t = {_si_time(s['checkpoint']['time'])} (step {s['checkpoint']['step']}) "
-            f"kept in {out_dir / runner.CHECKPOINT}"
+            f"kept in {markup(out_dir / runner.CHECKPOINT, None)}", highlight=False
         )
         raise typer.Exit(1)
     t = s["timing"]
     console.print(
         f"[green]{result.status}[/green]: t = {_si_time(result.time)} in {result.steps} steps, "
         f"{s['wall_s']:.1f} s wall (solver {t['solver_s']:.1f} s, output {t['output_s']:.1f} s; start-up "
-        f"{t['start_up_s']:.1f} s before); open {out_dir / s['pvd']} in ParaView"
+        f"{t['start_up_s']:.1f} s before); open {markup(out_dir / s['pvd'], None)} in ParaView"
     )

@@ -29,6 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tissuempm.mpm.axisymmetric import per_radian_volume
+
 Vec3 = tuple[float, float, float]
 
 
@@ -267,8 +269,10 @@ def seed(
     cells: tuple[int, int, int],
     per_cell: int,
     exclude: Shape | None = None,
+    axisymmetric: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Seed ``per_cell``^3 particles per grid cell inside ``shape``.
+    """Seed ``per_cell``^3 particles per grid cell inside ``shape`` (``axisymmetric``: ``per_cell``^2
+    per cell of the meridian plane z = 0, :func:`meridian_lattice`).
 
     Parameters
     ----------
@@ -284,20 +288,36 @@ def seed(
     Returns
     -------
     x : (m, 3) positions [m]
-    volume : (m,) reference volumes (h/n)^3 [m^3]
-    size : (m, 3) reference particle edge lengths h/n [m]
+    volume : (m,) reference volumes (h/n)^3 [m^3] (axisymmetric: per radian, r (h/n)^2 [m^3/rad])
+    size : (m, 3) reference particle edge lengths h/n [m] (axisymmetric: h along z, the hoop direction)
     """
     if per_cell < 1:
         raise ValueError(f"per_cell = {per_cell} must be >= 1")
     lo, hi = shape.bounds()
-    x = lattice(lo, hi, origin, cell_size, cells, per_cell)
+    x = (meridian_lattice if axisymmetric else lattice)(lo, hi, origin, cell_size, cells, per_cell)
     keep = shape.contains(x) if len(x) else np.zeros(0, bool)
     if exclude is not None and len(x):
         keep &= ~exclude.contains(x)
     x = x[keep]
     sub = np.float64(cell_size) / per_cell
     with np.errstate(over="ignore"):  # an absurd cell size gives inf volumes, which ParticleData refuses
+        if axisymmetric:
+            size = np.tile([sub, sub, np.float64(cell_size)], (len(x), 1))
+            return x, per_radian_volume(x, sub**2), size
         return x, np.full(len(x), sub**3), np.full((len(x), 3), sub)
+
+
+def meridian_lattice(
+    lower: np.ndarray, upper: np.ndarray, origin: Vec3, cell_size: float, cells: tuple[int, int, int], per_cell: int
+) -> np.ndarray:
+    """Sub-cell centres (m, 3) of the meridian plane z = 0 (:mod:`tissuempm.mpm.axisymmetric`):
+    ``per_cell``^2 per grid cell of the (x, y) = (r, axis) plane overlapping ``[lower, upper]``."""
+    ranges = lattice_ranges(lower, upper, origin, cell_size, per_cell, cells)[:2]
+    axes = [_coordinates(r, origin[k], cell_size / per_cell) for k, r in enumerate(ranges)]
+    if any(len(a) == 0 for a in axes):
+        return np.zeros((0, 3))
+    gx, gy = np.meshgrid(*axes, indexing="ij")
+    return np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], axis=1)
 
 
 # ---------------------------------------------------------------------------- fiber fields

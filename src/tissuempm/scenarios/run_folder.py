@@ -22,6 +22,7 @@ folder, e.g. a ``wound/`` report, are kept), so an overwritten folder holds no s
 frame or ``.pvd`` entry.
 """
 
+import re
 from pathlib import Path
 
 from tissuempm.io.checkpoint import CheckpointError
@@ -76,9 +77,47 @@ def check(out: str | Path, restart: bool = False, overwrite: bool = False) -> No
         )
 
 
-def clear(out: str | Path) -> None:
-    """Remove the files of a run from ``out`` (and ``frames/`` when it is left empty)."""
+_TEMPORARY = re.compile(r"^\.(.+)\.tmp\d+$")
+"""Name of a temporary file of :func:`tissuempm.io.files.atomic_path` (``.NAME.tmpPID``)."""
+
+
+def temporaries(out: str | Path) -> list[Path]:
+    """Temporary files (``.NAME.tmpPID``) of a layout file in ``out`` and ``out/frames``: a run
+    killed while writing leaves them."""
     out = Path(out)
+    found = []
+    for folder, names in ((out, RUN_FILES), (out / FRAMES, None)):
+        if not folder.is_dir():
+            continue
+        for path in folder.iterdir():
+            m = _TEMPORARY.match(path.name)
+            if m and path.is_file() and (names is None and m.group(1).startswith(f"{SERIES}_")
+                                         or names is not None and m.group(1) in names):
+                found.append(path)
+    return sorted(found)
+
+
+def remove_temporaries(out: str | Path) -> None:
+    """Remove :func:`temporaries` (call it holding the folder's lock: no live writer owns them then)."""
+    for path in temporaries(out):
+        path.unlink(missing_ok=True)
+
+
+def remove_if_empty(out: str | Path) -> None:
+    """Remove ``out`` (and an empty ``frames/``) when nothing else is in it, e.g. after a failed start."""
+    out = Path(out)
+    for folder in (out / FRAMES, out):
+        try:
+            folder.rmdir()
+        except OSError:  # not empty, or already gone
+            pass
+
+
+def clear(out: str | Path) -> None:
+    """Remove the files of a run from ``out`` (and ``frames/`` when it is left empty), with the
+    temporary files a killed run left."""
+    out = Path(out)
+    remove_temporaries(out)
     for path in run_files(out):
         path.unlink()
     folder = out / FRAMES

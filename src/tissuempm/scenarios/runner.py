@@ -66,15 +66,16 @@ from tissuempm.io import (
     write_checkpoint,
     write_json,
 )
+from tissuempm.io import lock
 from tissuempm.io.background import BackgroundWriter
 from tissuempm.io.frames import DEFAULT_FRAME_FIELDS, select_fields, state_names
+from tissuempm.io.head_history import head_history_columns
 from tissuempm.mpm import ExplicitSolver, ImplicitSolver, InstabilityError, State
-from tissuempm.mpm.solver import removed_summary
 from tissuempm.mpm.state import REMOVAL_COLUMNS, REMOVAL_REASONS
 from tissuempm.scenarios import run_folder
 from tissuempm.scenarios.build import Problem, build, implicit_config
 from tissuempm.scenarios.checks import check_device, stability_warnings
-from tissuempm.scenarios.run_folder import CHECKPOINT, HISTORY, SCENARIO, SERIES, SUMMARY
+from tissuempm.scenarios.run_folder import CHECKPOINT, HISTORY, SCENARIO, SERIES, SUMMARY, OutputFolderError
 from tissuempm.scenarios.schema import Scenario
 
 
@@ -162,6 +163,7 @@ class Runner:
         fields = scenario.run.fields
         self.frame_fields = list(DEFAULT_FRAME_FIELDS if fields is None else fields)
         self._history_names = state_names(self.materials)
+        self.head_columns = head_history_columns(scenario, self.problem)  # [[probe]], [head] (docs/brain.md)
         self.startup_s = wallclock.perf_counter() - created
         """Seconds spent building the problem (seeding) and the solver; :meth:`run` adds the
         initial state and the kernel loading."""
@@ -182,6 +184,7 @@ class Runner:
             "version": __version__,
             "time": float(data["time"]),
             "step": int(data["step"]),
+            "end_time": self.scenario.run.end_time,
             "frames": self.series.frames,
             "wall_s": wall,
         }
@@ -232,12 +235,26 @@ class Runner:
     def _resume(self) -> State:
         arrays, meta = read_checkpoint(self.out / CHECKPOINT)
         self._check_problem(meta)
+        untracked = [f for f in self.solver.extra_fields if f.startswith("peak_") and f not in arrays]
+        if untracked:
+            raise CheckpointError(f"{self.out / CHECKPOINT} holds no {', '.join(untracked)}: the run started without "
+                                  "tracking them (run.track), so a restart could not give their peaks over the whole "
+                                  "run; restart with the run's run.track or start anew with --overwrite")
         try:
             state = State.from_numpy(self.solver, arrays)
             frames = [(float(t), str(f)) for t, f in meta["frames"]]
             step, time, wall = int(meta["step"]), float(meta["time"]), float(meta.get("wall_s", 0.0))
         except (KeyError, ValueError, TypeError, IndexError) as e:
             raise CheckpointError(f"{self.out / CHECKPOINT} is not a complete checkpoint of this run: {e}") from None
+        end = self.scenario.run.end_time
+        written_for = meta.get("end_time")  # a completed run's last step overshoots its end_time: no refusal
+        reached = isinstance(written_for, (int, float)) and end >= written_for * (1.0 - 1e-12)
+        if end < time * (1.0 - 1e-12) and not reached:
+            raise CheckpointError(
+                f"run.end_time = {end:.6g} s is before the checkpoint's time t = {time:.6g} s (step {step}) in "
+                f"{self.out / CHECKPOINT}: a restart continues a run, so give run.end_time > {time:.6g} s "
+                "(e.g. --set run.end_time=...) or start anew with --overwrite"
+            )
         self.series.frames = frames
         self.series.truncate(len(frames))
         self.history.truncate(step)
@@ -261,15 +278,43 @@ class Runner:
         and :class:`~tissuempm.scenarios.run_folder.OutputFolderError` when the output folder
         cannot take the run (a file, not writable, or holding another run without ``overwrite``);
         in both cases nothing is created or changed.
+
+        The folder is locked for the whole run (:mod:`tissuempm.io.lock`: a second run into it is
+        refused with :class:`~tissuempm.scenarios.run_folder.OutputFolderError`); temporary files a
+        killed run left (``.NAME.tmpPID``) are removed; a folder this call created is removed again
+        when the run fails leaving it empty.
         """
-        run = self.scenario.run
         started = wallclock.perf_counter()
         run_folder.check(self.out, restart=restart, overwrite=overwrite)
+        created = not self.out.exists()
+        try:
+            self.out.mkdir(parents=True, exist_ok=True)
+            try:
+                held = lock.acquire(self.out)
+            except lock.FolderLockedError as e:
+                raise OutputFolderError(str(e)) from None
+            try:
+                run_folder.check(self.out, restart=restart, overwrite=overwrite)  # again, under the lock
+                run_folder.remove_temporaries(self.out)
+                return self._run(restart, progress, overwrite, kernels, started)
+            finally:
+                lock.release(held)
+        finally:
+            if created:
+                run_folder.remove_if_empty(self.out)
+
+    def _run(
+        self, restart: bool, progress: Callable[[Progress], None] | None, overwrite: bool,
+        kernels: Callable[[int, int], None] | None, started: float,
+    ) -> RunResult:
+        """:meth:`run` in the locked folder."""
+        run = self.scenario.run
         self.series = VTUSeries(self.out, SERIES)
         rigid = {i: n for i, n in enumerate(self.problem.material_names) if self.problem.model.is_rigid(i)}
         free = tuple(i for i in rigid if self.problem.model.is_free(i))
         removed = tuple(f"{r}_{c}" for r in REMOVAL_REASONS for c in REMOVAL_COLUMNS)
-        self.history = HistoryLog(self.out / HISTORY, rigid, free, removed)
+        self.history = HistoryLog(self.out / HISTORY, rigid, free, removed, tuple(self.head_columns),
+                                  axisymmetric=self.problem.model.axisymmetric)
         self.clock0, self.wall_before = wallclock.perf_counter(), 0.0
         self.output_s, self.frame_at, self.history_at = 0.0, -math.inf, -1
         self.writer = BackgroundWriter(depth=2)
@@ -278,7 +323,6 @@ class Runner:
                 state = self._resume()
                 restarted_from: float | None = state.time
             else:
-                self.out.mkdir(parents=True, exist_ok=True)
                 run_folder.clear(self.out)
                 state = self.solver.initial_state(self.problem.particles)
                 restarted_from = None
@@ -304,7 +348,7 @@ class Runner:
                     due = min(next_frame, next_row, next_ckpt, run.end_time)
                     last = run.max_steps is not None and state.step + 1 >= run.max_steps
                     self.solver.reactions = last or state.time + dt >= due * (1.0 - 1e-12)
-                    self.solver.step(state, dt, self.problem.loading.at(state.time + 0.5 * dt))  # mid-step loads
+                    self.solver.step(state, dt, self.problem.loading.at(state.time + 0.5 * dt, state))  # mid-step loads
                     frame_due = state.time >= next_frame * (1.0 - 1e-12)
                     row_due = state.time >= next_row * (1.0 - 1e-12)
                     ckpt_due = state.time >= next_ckpt * (1.0 - 1e-12)
@@ -364,7 +408,7 @@ class Runner:
             "steps": state.step,
             "particles": n,
             "particles_left": state.n,
-            "removed": removed_summary(state.removed),
+            "removed": self.solver.removed_totals(state),
             "removed_rigid": int(state.removed_rigid),
             "wall_s": self.wall_before + wall,
             "steps_per_s": steps_here / wall if wall > 0 else None,

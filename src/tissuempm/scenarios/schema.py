@@ -8,7 +8,7 @@ key by its path in the file (``solver.cfl``, ``body[0].shape.radius``) with the
 valid range.
 
 Sections: ``[solver]``, ``[grid]``, ``[materials.<name>]``, ``[[body]]``,
-``[[boundary]]``, ``[[fixed]]``, ``[amplitudes.<name>]`` and ``[run]``.
+``[[boundary]]``, ``[[fixed]]``, ``[[contact]]``, ``[[blast]]``, ``[amplitudes.<name>]`` and ``[run]``.
 
 Time-varying loads: gravity (``solver.gravity_amplitude``), a rigid driver's
 velocity (``materials.<name>.amplitude``) and a grid face's velocity
@@ -231,14 +231,26 @@ class SolverSection(Section):
 
 
 class GridSection(Section):
-    """``[grid]``: the background grid spans ``lower`` to ``upper`` in cells of ``cell_size``."""
+    """``[grid]``: the background grid spans ``lower`` to ``upper`` in cells of ``cell_size``.
+
+    ``axisymmetric = true``: the grid is the meridian plane of a body of revolution
+    (:mod:`tissuempm.mpm.axisymmetric`): x is the radius (``lower[0]`` must be 0: the axis), y the
+    axis; the z range given is replaced by one cell centred on z = 0 (the plane the shapes are
+    cut by), and slip faces on the axis and both z faces are added."""
 
     lower: Point
     upper: Point
     cell_size: Annotated[Length, Field(gt=0.0)]
+    axisymmetric: bool = False
 
     @model_validator(mode="after")
     def _extent(self) -> "GridSection":
+        if self.axisymmetric:
+            if self.lower[0] != 0.0:
+                raise ValueError(f"grid.lower[0] = {self.lower[0]:g} m: an axisymmetric grid starts at the axis, 0")
+            half = 0.5 * self.cell_size  # one cell thick along the hoop direction, centred on z = 0
+            object.__setattr__(self, "lower", (self.lower[0], self.lower[1], -half))
+            object.__setattr__(self, "upper", (self.upper[0], self.upper[1], half))
         for k, (a, b) in enumerate(zip(self.lower, self.upper)):
             if not b > a:
                 raise ValueError(f"grid.upper[{k}] = {b:g} m must exceed grid.lower[{k}] = {a:g} m")
@@ -347,16 +359,109 @@ class DifferenceSpec(Section):
         return geometry.Difference(self.base.build(), tuple(p.build() for p in self.subtract))
 
 
+Label = Annotated[int, Field(strict=True)]
+"""A label value of a segmented volume: an integer (``3``, not ``3.0`` or ``"3"``)."""
+
+
+def _triple(value: Any) -> Any:
+    return value if value is None or isinstance(value, (list, tuple)) else (value, value, value)
+
+
+class VolumeOptions(Section):
+    """Where a label volume is and how it is placed (:mod:`tissuempm.scenarios.images`).
+
+    ``file``: NIfTI, NRRD, TIFF stack or NumPy file, relative to the scenario file's folder (and
+    inside it) or absolute. ``spacing`` (one length or three) and ``origin`` replace or supply the
+    header's voxel size and the position of voxel (0, 0, 0); ``flip`` mirrors world axes about the
+    volume's centre, ``offset`` then moves it, ``frame = "LPS"`` puts it in the LPS frame
+    (default: RAS+, the frame every reader converts to).
+    """
+
+    file: str
+    spacing: Annotated[tuple[Length, Length, Length] | None, BeforeValidator(_triple)] = None
+    origin: Point | None = None
+    offset: Point = (0.0, 0.0, 0.0)
+    flip: list[Literal["x", "y", "z"]] = []
+    frame: Literal["RAS", "LPS"] = "RAS"
+
+    @field_validator("file")
+    @classmethod
+    def _file(cls, file: str, info: ValidationInfo) -> str:
+        from tissuempm.scenarios.images import VolumeError, resolve_file, volume_format
+
+        try:
+            path = resolve_file(file, (info.context or {}).get("base"))
+            volume_format(path)
+        except VolumeError as e:
+            raise ValueError(str(e)) from None
+        return str(path)
+
+    @field_validator("spacing")
+    @classmethod
+    def _spacing(cls, spacing: tuple[float, float, float] | None) -> tuple[float, float, float] | None:
+        for k, s in enumerate(spacing or ()):
+            if not s > 0.0:
+                raise ValueError(f"spacing[{k}] = {s:g} m must be > 0 (the voxel edge length)")
+        return spacing
+
+    def volume(self) -> Any:
+        """The :class:`~tissuempm.scenarios.images.LabelVolume` (read once per file, cached)."""
+        from tissuempm.scenarios.images import read_volume
+
+        return read_volume(self.file, self.spacing, self.origin)
+
+    def read(self) -> Any:
+        """:meth:`volume`, its reader's error as a ``ValueError`` (a validation error)."""
+        from tissuempm.scenarios.images import VolumeError
+
+        try:
+            return self.volume()
+        except VolumeError as e:
+            raise ValueError(str(e)) from None
+
+    def placement(self) -> Any:
+        """The 4x4 RAS+ -> world map of ``offset``, ``flip`` and ``frame``."""
+        from tissuempm.scenarios.images import placement
+
+        return placement(self.volume(), self.offset, tuple(self.flip), self.frame)
+
+
+def _absent(volume: Any, labels: list[int]) -> None:
+    missing = sorted(set(labels) - set(volume.values))
+    if missing:
+        raise ValueError(f"labels {missing} are not in the volume {volume.path} (it holds {list(volume.values)})")
+
+
+class LabelsSpec(VolumeOptions):
+    """``type = "labels"``: the voxels of a label volume holding any of ``labels``."""
+
+    type: Literal["labels"]
+    labels: Annotated[list[Label], Field(min_length=1)]
+
+    @model_validator(mode="after")
+    def _present(self) -> "LabelsSpec":
+        _absent(self.read(), self.labels)
+        return self
+
+    def build(self) -> geometry.Shape:
+        from tissuempm.scenarios.images import LabelShape
+
+        return LabelShape(self.volume(), tuple(self.labels), self.placement())
+
+
 ShapeSpec = Annotated[
-    BoxSpec | SphereSpec | CylinderSpec | UnionSpec | DifferenceSpec, Field(discriminator="type")
+    BoxSpec | SphereSpec | CylinderSpec | UnionSpec | DifferenceSpec | LabelsSpec, Field(discriminator="type")
 ]
 UnionSpec.model_rebuild()
 DifferenceSpec.model_rebuild()
 
 
 def _nonzero(v: tuple[float, float, float]) -> tuple[float, float, float]:
-    if not any(c != 0.0 for c in v):
-        raise ValueError("must be a non-zero vector")
+    from tissuempm.safety import direction_problem
+
+    problem = direction_problem(v)  # zero, or a length whose square under- or overflows
+    if problem:
+        raise ValueError(problem)
     return v
 
 
@@ -391,7 +496,7 @@ class RotatingFiberSpec(Section):
 
 
 FiberSpec = Annotated[UniformFiberSpec | RotatingFiberSpec, Field(discriminator="type")]
-_TAGS = {"box", "sphere", "cylinder", "union", "difference", "uniform", "rotating", "amplitude-name", "amplitude-table"}
+_TAGS = {"box", "sphere", "cylinder", "union", "difference", "labels", "uniform", "rotating", "amplitude-name", "amplitude-table"}
 
 
 # ---------------------------------------------------------------------------- [[body]], [[fixed]]
@@ -446,6 +551,184 @@ class ContactSection(Section):
         return self
 
 
+class BlastSection(Section):
+    """``[[blast]]``: a Friedlander blast wave on the exposed surface of ``bodies``
+    (:mod:`tissuempm.mpm.blast`, :mod:`tissuempm.mpm.surface_loads`; docs/head_loads.md).
+
+    A plane front moving along ``direction`` at ``front_speed`` (default: the Rankine-Hugoniot
+    speed in air of ``ambient`` pressure and ``sound_speed`` at ``peak``) reaches
+    ``reference_point`` (default: the first surface particle it meets) at ``arrival_time``;
+    each surface particle then carries p(t') = P (1 - t'/T+) exp(-b t'/T+), P from ``peak``
+    by the ``reflection`` rule (``"conwep"``: P_r cos^2 + P_s (1 + cos^2 - 2 cos) on the lit
+    side, P_s on the shadowed side; ``"normal"``: P_r on the lit side; ``"incident"``: P_s).
+    """
+
+    bodies: Annotated[list[str], Field(min_length=1)]
+    peak: Annotated[quantity("Pa"), Field(gt=0.0, le=1.0e9)]
+    duration: Annotated[Time, Field(gt=0.0)]
+    decay: Annotated[Number, Field(ge=0.0, le=100.0)] = 1.0
+    direction: Direction = (1.0, 0.0, 0.0)
+    arrival_time: Annotated[Time, Field(ge=0.0)] = 0.0
+    reference_point: Point | None = None
+    ambient: Annotated[quantity("Pa"), Field(gt=0.0)] = 101_325.0
+    sound_speed: Annotated[Speed, Field(gt=0.0)] = 340.29
+    front_speed: Annotated[Speed, Field(gt=0.0)] | None = None
+    reflection: Literal["conwep", "normal", "incident"] = "conwep"
+
+    _check = field_validator("direction")(_nonzero)
+
+
+# ---------------------------------------------------------------------------- [[label_volume]]
+
+
+def _one_or_more(value: Any) -> Any:
+    return value if isinstance(value, (list, tuple)) else [value]
+
+
+class LabelEntry(Section):
+    """One row of a label table: the labels of one body, its material and name.
+
+    ``material`` names a ``[materials.<name>]`` table; ``library`` a tissue of the library
+    (``tissuempm materials list``), used as ``[materials.<library>] = {library = ...}`` unless the
+    scenario defines a table of that name (which then overrides it). ``name`` is the body's name
+    (default: the library or material name), the name ``[[contact]]`` and ``[[fixed]]`` use.
+    """
+
+    label: Annotated[list[Label], BeforeValidator(_one_or_more), Field(min_length=1)]
+    name: str | None = None
+    material: str | None = None
+    library: str | None = None
+    description: str = ""
+    particles_per_cell: Annotated[int, Field(ge=1, le=8)] | None = None
+    velocity: Velocity | None = None
+
+    @model_validator(mode="after")
+    def _material(self) -> "LabelEntry":
+        if (self.material is None) == (self.library is None):
+            raise ValueError(f"label {self.label}: give one of material (a [materials] name) or library "
+                             f"(a tissue name), got material = {self.material!r}, library = {self.library!r}")  # fmt: skip
+        return self
+
+
+class LabelVolumeSection(VolumeOptions):
+    """``[[label_volume]]``: a segmented volume whose label table expands into ``[[body]]`` entries.
+
+    Each entry of ``[[label_volume.label]]`` (or of the ``[[label]]`` list of the TOML file
+    ``table``, the format ``tissuempm head build`` writes; entries given inline replace the
+    table's entries with the same labels) becomes one body of shape
+    ``{type = "labels", file, labels, ...}`` after the ``[[body]]`` entries, with
+    ``particles_per_cell`` and ``velocity`` (the section's, or the entry's own).
+    """
+
+    table: str | None = None
+    label: list[LabelEntry] = []
+    particles_per_cell: Annotated[int, Field(ge=1, le=8)] = 2
+    velocity: Velocity = (0.0, 0.0, 0.0)
+
+    @field_validator("table")
+    @classmethod
+    def _table(cls, table: str | None, info: ValidationInfo) -> str | None:
+        from tissuempm.scenarios.images import VolumeError, resolve_file
+
+        if table is None:
+            return None
+        try:
+            return str(resolve_file(table, (info.context or {}).get("base")))
+        except VolumeError as e:
+            raise ValueError(str(e)) from None
+
+    def entries(self) -> list[LabelEntry]:
+        """The label table: ``table``'s entries, those given inline replacing the ones of equal labels."""
+        rows: dict[tuple[int, ...], LabelEntry] = {}
+        if self.table is not None:
+            rows = {tuple(e.label): e for e in read_label_table(self.table)}
+        for e in self.label:
+            rows[tuple(e.label)] = e
+        return list(rows.values())
+
+    @model_validator(mode="after")
+    def _labels(self) -> "LabelVolumeSection":
+        entries = self.entries()
+        if not entries:
+            raise ValueError("needs a label table: [[label_volume.label]] entries or table = '<file>.toml'")
+        seen: dict[int, list[int]] = {}
+        for e in entries:
+            for v in e.label:
+                if v in seen:
+                    raise ValueError(f"label {v} is in two entries ({seen[v]} and {e.label}): a voxel is one body's")
+                seen[v] = e.label
+        _absent(self.read(), list(seen))
+        return self
+
+    def bodies(self, defined: dict[str, Any], taken: set[str]) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+        """The ``[[body]]`` tables of the label table and the ``[materials]`` it adds (library tissues
+        not in ``defined``); body names avoid ``taken``."""
+        options = self.model_dump(include={"file", "spacing", "origin", "offset", "flip", "frame"})
+        bodies, added = [], {}
+        for e in self.entries():
+            material = e.material if e.material is not None else e.library
+            if e.library is not None and e.library not in defined and e.library not in added:
+                added[e.library] = {"library": e.library}
+            name = e.name or material
+            if e.name is None and name in taken:
+                name = f"{material}_{e.label[0]}"
+            taken.add(name)
+            bodies.append({
+                "name": name, "material": material, "shape": {"type": "labels", "labels": e.label, **options},
+                "particles_per_cell": e.particles_per_cell or self.particles_per_cell,
+                "velocity": e.velocity if e.velocity is not None else self.velocity,
+            })  # fmt: skip
+        return bodies, added
+
+
+def read_label_table(path: str | Path) -> list[LabelEntry]:
+    """The ``[[label]]`` entries of a label table file (TOML: optional ``description`` and
+    ``source`` strings and an array ``[[label]]`` of :class:`LabelEntry` tables)."""
+    p = Path(path)
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ValueError(f"label table {p} not found") from None
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
+        raise ValueError(f"label table {p} cannot be read as TOML: {e}") from None
+    extra = sorted(set(data) - {"description", "source", "label"})
+    if extra or not isinstance(data.get("label", []), list):
+        raise ValueError(f"label table {p}: unknown keys {extra}: it holds description, source and [[label]] entries")
+    try:
+        return [LabelEntry.model_validate(row) for row in data.get("label", [])]
+    except ValidationError as e:
+        raise ValueError(f"label table {p}: " + "; ".join(
+            f"{_path(err['loc']) or 'label'}: {err['msg'].removeprefix('Value error, ')}" for err in e.errors()
+        )) from None  # fmt: skip
+
+
+def _expand_label_volumes(data: dict[str, Any], context: dict[str, Any] | None) -> dict[str, Any]:
+    """``data`` with each ``[[label_volume]]`` replaced by its bodies and library materials."""
+    volumes = data.get("label_volume")
+    if volumes is None:
+        return data
+    if not isinstance(volumes, list):
+        raise ValueError("label_volume: must be an array of tables ([[label_volume]])")
+    data = {k: v for k, v in data.items() if k != "label_volume"}
+    bodies, materials = data.get("body", []), data.get("materials", {})
+    if not isinstance(bodies, list) or not isinstance(materials, dict):
+        return data  # reported by the field validation
+    bodies, materials = list(bodies), dict(materials)
+    taken = {b["name"] for b in bodies if isinstance(b, dict) and isinstance(b.get("name"), str)}
+    for i, raw in enumerate(volumes):
+        try:
+            section = LabelVolumeSection.model_validate(raw, context=context)
+        except ValidationError as e:
+            raise ValueError("; ".join(
+                f"label_volume[{i}]{'.' + _path(err['loc']) if _path(err['loc']) else ''}: "
+                f"{err['msg'].removeprefix('Value error, ')}" for err in e.errors()
+            )) from None  # fmt: skip
+        new_bodies, added = section.bodies(materials, taken)
+        bodies += new_bodies
+        materials.update(added)
+    return {**data, "body": bodies, "materials": materials}
+
+
 # ---------------------------------------------------------------------------- [run]
 
 
@@ -469,6 +752,10 @@ class RunSection(Section):
     """A particle leaving the grid through a face without a wall is removed and counted
     (``"remove"``, :mod:`tissuempm.mpm.removal`) or stops the run (``"stop"``, "left grid")."""
     output: str | None = None
+    track: list[str] | None = None
+    """Per-particle peaks the solver tracks every step (:data:`tissuempm.mpm.tracking.TRACKED`:
+    ``"peak_strain"``, ``"peak_von_mises"``); default (None): both when the scenario has
+    ``[[probe]]`` or ``[head]`` sections (the brain metrics, docs/brain.md), none otherwise."""
 
     @property
     def frame_interval(self) -> float:
@@ -491,6 +778,13 @@ class RunSection(Section):
         from tissuempm.io.frames import check_fields
 
         return None if names is None else check_fields(names)
+
+    @field_validator("track")
+    @classmethod
+    def _track(cls, names: list[str] | None) -> list[str] | None:
+        from tissuempm.mpm.tracking import check_track
+
+        return None if names is None else list(check_track(names))
 
 
 # ---------------------------------------------------------------------------- materials
@@ -601,6 +895,32 @@ def _rigid_spec(data: dict[str, Any]) -> RigidSpec:
     return RigidSpec.model_validate({k: v for k, v in data.items() if k != "kind"})
 
 
+# ---------------------------------------------------------------------------- [[probe]], [head]
+
+
+class ProbeSection(Section):
+    """``[[probe]]``: a pressure gauge (:mod:`tissuempm.io.head_history`, docs/brain.md): the particles
+    whose reference position lies within ``radius`` (default: one cell) of ``position``, of the
+    ``bodies`` or ``materials`` named (default: every deformable one), carry their volume-weighted
+    mean pressure -tr(sigma)/3 into ``history.csv`` as ``probe_<name>_pressure`` [Pa]."""
+
+    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.-]+$")]
+    position: Point
+    radius: Annotated[Length, Field(gt=0.0)] | None = None
+    bodies: list[str] | None = None
+    materials: list[str] | None = None
+
+
+class HeadSection(Section):
+    """``[head]``: which bodies are the skull (their mass-weighted motion is the head's linear and
+    angular velocity and acceleration, ``head_*`` columns of ``history.csv``) and which materials
+    are brain (the default set of ``tissuempm brain``; default: every deformable material the
+    skull bodies do not use)."""
+
+    skull: Annotated[list[str], Field(min_length=1)]
+    brain: list[str] | None = None
+
+
 # ---------------------------------------------------------------------------- the scenario
 
 
@@ -616,8 +936,31 @@ class Scenario(Section):
     boundaries: Annotated[list[BoundarySection], Field(alias="boundary")] = []
     fixed: list[FixedSection] = []
     contacts: Annotated[list[ContactSection], Field(alias="contact")] = []
+    blasts: Annotated[list[BlastSection], Field(alias="blast")] = []
     amplitudes: dict[str, AmplitudeSpec] = {}
+    probes: Annotated[list[ProbeSection], Field(alias="probe")] = []
+    head: HeadSection | None = None
     run: RunSection
+
+    def _axisymmetric_faces(self) -> None:
+        """Add the slip faces of an axisymmetric grid (the axis, x lower, and both z faces) that the
+        file does not give; refuse another condition on them, a grid without reset, the implicit
+        integrator."""
+        required = (("x", "lower"), ("z", "lower"), ("z", "upper"))
+        for i, bc in enumerate(self.boundaries):
+            if (bc.axis, bc.side) in required and (bc.kind != "slip" or any(bc.velocity)):
+                raise ValueError(f"boundary[{i}]: the {bc.side} {bc.axis} face of an axisymmetric grid is a "
+                                 f"symmetry (slip) face, got kind = {bc.kind!r}")  # fmt: skip
+        if self.solver.integrator == "implicit" or self.solver.grid == "no_reset":
+            raise ValueError("grid.axisymmetric needs solver.integrator = 'explicit' and solver.grid = 'reset'")
+        given = {(bc.axis, bc.side) for bc in self.boundaries}
+        extra = [BoundarySection(axis=a, side=side, kind="slip") for a, side in required if (a, side) not in given]
+        object.__setattr__(self, "boundaries", [*self.boundaries, *extra])
+
+    @model_validator(mode="before")
+    @classmethod
+    def _label_volumes(cls, data: Any, info: ValidationInfo) -> Any:
+        return _expand_label_volumes(data, info.context) if isinstance(data, dict) else data
 
     @field_validator("materials")
     @classmethod
@@ -636,6 +979,7 @@ class Scenario(Section):
         if len(set(body_names)) != len(body_names):
             raise ValueError(f"body names must be unique, got {body_names}")
         self._body_masses()
+        self._voxel_sizes()
         for i, fix in enumerate(self.fixed):
             for b in fix.bodies or []:
                 if b not in body_names:
@@ -655,11 +999,19 @@ class Scenario(Section):
                     "[[contact]] needs solver.integrator = 'explicit' and solver.grid = 'reset' "
                     f"(got {self.solver.integrator!r}, {self.solver.grid!r})"
                 )
+        for i, b in enumerate(self.blasts):
+            for name in b.bodies:
+                if name not in body_names:
+                    raise ValueError(f"blast[{i}].bodies: {name!r} is not a body name: choose from {body_names}")
+            if self.solver.integrator == "implicit":
+                raise ValueError(f"blast[{i}]: [[blast]] needs solver.integrator = 'explicit'")
         seen = set()
         for i, bc in enumerate(self.boundaries):
             if (bc.axis, bc.side) in seen:
                 raise ValueError(f"boundary[{i}]: a second condition on the {bc.side} {bc.axis} face")
             seen.add((bc.axis, bc.side))
+        if self.grid.axisymmetric:
+            self._axisymmetric_faces()
         for where, ref in self._amplitude_uses():
             if isinstance(ref, str) and ref not in self.amplitudes:
                 raise ValueError(
@@ -667,6 +1019,40 @@ class Scenario(Section):
                     "(an [amplitudes.<name>] table) or give the points inline"
                 )
         return self
+
+    @model_validator(mode="after")
+    def _brain_references(self) -> "Scenario":
+        """``[[probe]]`` and ``[head]`` name existing bodies and materials; tracking needs the explicit solver."""
+        bodies, materials = self.body_names(), list(self.materials)
+        seen: set[str] = set()
+        for i, probe in enumerate(self.probes):
+            if probe.name in seen:
+                raise ValueError(f"probe[{i}].name = {probe.name!r}: a second probe of that name")
+            seen.add(probe.name)
+            for key, names, valid in (("bodies", probe.bodies, bodies), ("materials", probe.materials, materials)):
+                for name in names or []:
+                    if name not in valid:
+                        raise ValueError(f"probe[{i}].{key}: {name!r} is not defined: choose from {valid}")
+        if self.head is not None:
+            for name in self.head.skull:
+                if name not in bodies:
+                    raise ValueError(f"head.skull: {name!r} is not a body name: choose from {bodies}")
+            for name in self.head.brain or []:
+                if name not in materials:
+                    raise ValueError(f"head.brain: {name!r} is not a material: choose from {materials}")
+        if self.run.track and self.solver.integrator == "implicit":
+            raise ValueError(f"run.track = {self.run.track} needs solver.integrator = 'explicit'")
+        return self
+
+    def tracked(self) -> tuple[str, ...]:
+        """The peaks the solver tracks: ``run.track``, or by default both with ``[[probe]]`` or
+        ``[head]`` (explicit integrator) and none otherwise."""
+        from tissuempm.mpm.tracking import TRACKED
+
+        if self.run.track is not None:
+            return tuple(self.run.track)
+        wanted = bool(self.probes or self.head) and self.solver.integrator == "explicit"
+        return tuple(TRACKED) if wanted else ()
 
     def _body_masses(self) -> None:
         """``body[i].mass`` needs a free rigid material of its own, without ``density`` or ``mass``."""
@@ -686,6 +1072,43 @@ class Scenario(Section):
             if len(users) > 1:
                 raise ValueError(f"{where}: material {body.material!r} is used by bodies {users}, which move as one "
                                  f"free body: give the total as materials.{body.material}.mass instead")  # fmt: skip
+
+    def _voxel_sizes(self) -> None:
+        """Label volumes against the grid: a cell size below :data:`~tissuempm.scenarios.images.MIN_CELL_FRACTION`
+        voxel edges is an error; a particle spacing above :data:`~tissuempm.scenarios.images.COARSE_WARNING`
+        voxel edges, and labels of a volume that no body takes, are warnings."""
+        import warnings
+
+        from tissuempm.scenarios.images import COARSE_WARNING, MIN_CELL_FRACTION
+
+        h = self.grid.cell_size
+        taken: dict[tuple[Any, ...], tuple[Any, set[int]]] = {}
+        uses = [(f"body[{i}].shape", b.shape, b.particles_per_cell) for i, b in enumerate(self.bodies)]
+        uses += [(f"fixed[{i}].region", f.region, None) for i, f in enumerate(self.fixed)]
+        for where, shape, per_cell in uses:
+            for spec in _label_specs(shape):
+                volume = spec.volume()
+                voxel = float(volume.spacing.max())
+                if h < MIN_CELL_FRACTION * voxel:
+                    raise ValueError(
+                        f"{where}: grid.cell_size = {h * 1e3:g} mm is below {MIN_CELL_FRACTION:g} of the voxel size "
+                        f"{voxel * 1e3:g} mm of {spec.file}: the particles would resolve the voxels' staircase at "
+                        f"{(voxel / h) ** 3:.0f} cells per voxel; use cell_size >= {MIN_CELL_FRACTION * voxel * 1e3:g} mm "
+                        "or resample the volume finer"
+                    )
+                if per_cell is None:
+                    continue
+                if h / per_cell > COARSE_WARNING * voxel:
+                    warnings.warn(f"{where}: particle spacing cell_size/particles_per_cell = {h / per_cell * 1e3:g} mm "
+                                  f"is {h / per_cell / voxel:.0f} voxels of {spec.file}: layers a few voxels thick "
+                                  "may break up", stacklevel=2)  # fmt: skip
+                key = (spec.file, spec.spacing, spec.origin)
+                taken.setdefault(key, (volume, set()))[1].update(spec.labels)
+        for (file, _, _), (volume, used) in taken.items():
+            unused = sorted(set(volume.values) - used - {0})
+            if unused:
+                warnings.warn(f"{file}: labels {unused} are in the volume but no body takes them: their voxels stay "
+                              "empty (label 0 is the background)", stacklevel=2)  # fmt: skip
 
     def free_masses(self) -> dict[int, tuple[float, list[int]]]:
         """Material index -> (mass [kg], the bodies it is the mass of) of the free rigid bodies
@@ -733,23 +1156,47 @@ class Scenario(Section):
         return [_convert_material(name, data) for name, data in self.materials.items()]
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> "Scenario":
-        """Validate a parsed scenario; raise :class:`ScenarioError` naming each bad key."""
+    def from_dict(cls, data: dict[str, Any], base: str | Path | None = None) -> "Scenario":
+        """Validate a parsed scenario; raise :class:`ScenarioError` naming each bad key (and, before
+        validation, the key nested too deeply or holding too long a string: :mod:`tissuempm.safety`).
+
+        ``base``: the folder relative data file paths (label volumes, label tables) start from:
+        the scenario file's folder (:func:`load_scenario`); default the working folder.
+        """
+        from tissuempm.safety import InputLimitError, check_limits
+
         try:
-            return cls.model_validate(data)
+            check_limits(data, "scenario")
+            return cls.model_validate(data, context={"base": None if base is None else str(base)})
         except ValidationError as e:
             raise ScenarioError(format_errors(e)) from None
+        except InputLimitError as e:
+            raise ScenarioError(str(e)) from None
+
+
+def _label_specs(shape: Any) -> list[LabelsSpec]:
+    """The label-volume shapes in ``shape`` (through unions and differences)."""
+    if isinstance(shape, LabelsSpec):
+        return [shape]
+    if isinstance(shape, UnionSpec):
+        return [s for p in shape.parts for s in _label_specs(p)]
+    if isinstance(shape, DifferenceSpec):
+        return [s for p in (shape.base, *shape.subtract) for s in _label_specs(p)]
+    return []
 
 
 def _path(loc: tuple[Any, ...]) -> str:
     out = ""
+    tag = False  # the previous part was a union tag: this one is a key even when it reads like a tag
     for part in loc:
         if isinstance(part, int):
             out += f"[{part}]"
-        elif part in _TAGS or str(part).startswith("function-"):
+        elif (part in _TAGS and not tag) or str(part).startswith("function-"):
+            tag = part in _TAGS
             continue
         else:
             out += f".{part}" if out else str(part)
+        tag = False
     return out
 
 
@@ -776,9 +1223,14 @@ def load_scenario(path: str | Path, overrides: list[str] | None = None) -> Scena
     :mod:`tissuempm.scenarios.overrides`) applied before validation."""
     from tissuempm.scenarios.overrides import apply_overrides
 
+    from tissuempm.safety import InputLimitError, input_file, parse_toml
+
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        input_file(path, "scenario file")  # a FIFO would block, a huge file stall the parser
+        data = parse_toml(path.read_text(encoding="utf-8"), str(path))
+    except InputLimitError as e:
+        raise ScenarioError(str(e)) from None
     except FileNotFoundError:
         raise ScenarioError(f"scenario file {path} not found") from None
     except IsADirectoryError:
@@ -791,6 +1243,8 @@ def load_scenario(path: str | Path, overrides: list[str] | None = None) -> Scena
     except tomllib.TOMLDecodeError as e:
         raise ScenarioError(f"{path} is not valid TOML: {e}") from None
     try:
-        return Scenario.from_dict(apply_overrides(data, overrides or []))
+        return Scenario.from_dict(apply_overrides(data, overrides or []), base=path.absolute().parent)
     except ScenarioError as e:
         raise ScenarioError(f"{path}: {e}") from None
+    except RecursionError:  # a --set value nested too deeply for the TOML parser
+        raise ScenarioError(f"{path}: a --set value nests arrays or tables too deeply") from None

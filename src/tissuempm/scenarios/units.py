@@ -46,7 +46,13 @@ _BASE: dict[str, tuple[float, Dim]] = {
 _PREFIX: dict[str, float] = {"G": 1e9, "M": 1e6, "k": 1e3, "c": 1e-2, "m": 1e-3, "u": 1e-6, "µ": 1e-6, "n": 1e-9}
 _NO_PREFIX = {"min", "h", "1", "%", "deg"}
 
-_QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)\s*$")
+_NUMBER = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)")
+"""The number at the start of a quantity string; the rest (stripped) is the unit. Matched with
+``re.match`` only: no pattern spans the unit, so a long string cannot make the regex backtrack."""
+MAX_EXPONENT = 12
+"""Largest power of a unit symbol (``m^3``, ``s^-2``; ``km^400`` is refused, not overflowed)."""
+MAX_UNIT_LENGTH = 100
+"""Longest unit text [characters]."""
 _FACTOR = re.compile(r"^([A-Za-zµ%1]+)(?:\^([-+]?\d+))?$")
 
 
@@ -68,9 +74,12 @@ def _product(text: str) -> tuple[float, Dim]:
     for part in re.split(r"[*·.]", text):
         m = _FACTOR.match(part.strip())
         if not m:
-            raise UnitError(f"cannot read unit factor {part!r}")
+            raise UnitError(f"cannot read unit factor {part[:40]!r}")
         f, d = _symbol(m.group(1))
         p = int(m.group(2) or 1)
+        if abs(p) > MAX_EXPONENT:
+            raise UnitError(f"the power {p} of {m.group(1)!r} is out of range: valid powers are "
+                            f"-{MAX_EXPONENT}..{MAX_EXPONENT}")
         scale *= f**p
         dim = tuple(a + p * b for a, b in zip(dim, d))  # type: ignore[assignment]
     return scale, dim
@@ -79,6 +88,8 @@ def _product(text: str) -> tuple[float, Dim]:
 def unit_scale(unit: str) -> tuple[float, Dim]:
     """SI scale factor and dimension of ``unit`` (``""`` or ``"1"`` is dimensionless)."""
     unit = unit.strip()
+    if len(unit) > MAX_UNIT_LENGTH:
+        raise UnitError(f"unit {unit[:40]!r}... is {len(unit)} characters long: a unit has at most {MAX_UNIT_LENGTH}")
     if unit in ("", "1"):
         return 1.0, _NONE
     num, _, den = unit.partition("/")
@@ -113,14 +124,14 @@ def parse_quantity(value: object, unit: str) -> float:
         return float(value)
     if not isinstance(value, str):
         raise UnitError(f"{value!r} is not a number or a quantity string such as '50 mm'")
-    m = _QUANTITY.match(value)
+    m = _NUMBER.match(value)
     if not m:
-        raise UnitError(f"cannot read {value!r} as '<number> <unit>'")
-    number, text = float(m.group(1)), m.group(2)
+        raise UnitError(f"cannot read {value[:60]!r} as '<number> <unit>'")
+    number, text = float(m.group(1)), value[m.end():].strip()
     if not text:
         return number
     scale, dim = unit_scale(text)
     want_scale, want_dim = unit_scale(unit)
     if dim != want_dim:
-        raise UnitError(f"{value!r} has the wrong unit: expected a quantity in {unit}")
+        raise UnitError(f"{value[:60]!r} has the wrong unit: expected a quantity in {unit}")
     return number * scale / want_scale

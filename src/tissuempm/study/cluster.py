@@ -109,8 +109,36 @@ def local_client(sizing: Sizing):
     return Client(cluster)
 
 
+PROBE_TIMEOUT_S = 5.0
+"""Seconds to wait for a TCP connection to a scheduler before Dask's own (slower) handshake."""
+
+
+def probe(address: str, timeout: float = PROBE_TIMEOUT_S) -> None:
+    """Raise ``OSError`` (at once when refused, after ``timeout`` when unanswered) unless a TCP connection
+    to the host and port of a ``tcp://host:port`` address opens; other schemes are left to Dask."""
+    import socket
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    if parts.scheme != "tcp":
+        return
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError as e:  # a port that is not a number or out of range
+        raise ValueError(f"{address!r} is not an address such as tcp://host:8786 ({e})") from None
+    if not host or port is None:
+        raise ValueError(f"{address!r} is not an address such as tcp://host:8786 (host and port needed)")
+    try:
+        with socket.create_connection((host, port), timeout=timeout):
+            pass
+    except socket.timeout:
+        raise TimeoutError(f"no answer from {host}:{port} within {timeout:g} s") from None
+
+
 def remote_client(address: str):
-    """A :class:`distributed.Client` of the scheduler at ``address`` (``tcp://host:8786``)."""
+    """A :class:`distributed.Client` of the scheduler at ``address`` (``tcp://host:8786``); a port where
+    nothing listens is refused within :data:`PROBE_TIMEOUT_S` (:func:`probe`), not Dask's 20 s."""
     from distributed import Client
 
+    probe(address)
     return Client(address, timeout="20s")
