@@ -23,7 +23,6 @@ import click
 import numpy as np
 import typer
 from rich.console import Console
-from rich.markup import escape  # noqa: F401
 from rich.table import Table
 from typer.core import TyperGroup
 

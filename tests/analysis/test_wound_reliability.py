@@ -91,12 +91,13 @@ def test_a_write_that_fails_exits_2_and_leaves_no_report(run_dir, tmp_path, monk
     assert not (tmp_path / "w" / "wound.json").exists()
 
 
-def test_body_names_with_escape_sequences_are_printed_escaped(original, tmp_path):
+def test_body_names_with_markup_and_escape_sequences_are_printed_as_written(original, tmp_path):
+    """A body name is text, not rich markup: ``slab[/]`` ended the command with a MarkupError traceback."""
     run_dir = shutil.copytree(original, tmp_path / "run")
     scenario = json.loads((run_dir / "scenario.json").read_text())
-    scenario["body"][1]["name"] = "slab\x1b[2J\x1b]0;pwn\x07"
+    scenario["body"][1]["name"] = "slab[/]\x1b[2J"
     (run_dir / "scenario.json").write_text(json.dumps(scenario))
     res = cli.invoke(app, ["wound", str(run_dir), "--no-figures"], terminal_width=300)
     assert res.exit_code == 0, res.output
-    assert "\x1b" not in res.output and "\x07" not in res.output
-    assert "slab\\x1b[2J" in res.output
+    assert "\x1b" not in res.output
+    assert "'slab[/]\\x1b[2J'" in res.output

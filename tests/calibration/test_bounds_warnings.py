@@ -12,14 +12,13 @@ from typer.testing import CliRunner
 from tissuempm.calibration import command as command_module
 from tissuempm.calibration import diagnostics, identifiability as ident
 from tissuempm.calibration.command import calibrate, run_config
-from tissuempm.calibration.config import load_config
 from tissuempm.calibration.cost import CostFunction
 from tissuempm.calibration.data import Curve, write_csv
 from tissuempm.calibration.fit import fit, make_form
 from tissuempm.calibration.forward import uniaxial_response
 from tissuempm.calibration.optimizers import SearchSettings
 from tissuempm.calibration.polish import Optimality
-from tissuempm.calibration.results import parameter_rows
+from tissuempm.calibration.results import parameter_rows, to_json
 from tissuempm.calibration.studies import pseudo_data, table2_material
 from tissuempm.materials.base import from_dict
 
@@ -82,7 +81,7 @@ def test_user_bound_is_kept_flagged_and_has_no_standard_error():
     assert rows[1]["se"] is None and rows[1]["at_bound"] == "lower"
     w = r.warnings()
     assert any("alpha[0]" in x and "lower bound" in x and "your bound, kept" in x for x in w)
-    d = json.loads(__import__("tissuempm.calibration.results", fromlist=["to_json"]).to_json(r))
+    d = json.loads(to_json(r))
     assert d["at_bound"]["alpha[0]"] == "lower" and d["bounds"]["alpha[0]"]["source"] == "user"
 
 
@@ -124,6 +123,10 @@ def test_degenerate_terms_are_named():
     t[names.index("g[1]")] = 1e-6
     msgs = diagnostics.degeneracies(form, t, CostFunction(form, [c1, c2]))
     assert any(m.startswith("g[1] = 1e-06 1 carries no modulus") for m in msgs), msgs
+    t = th.copy()
+    t[names.index("mu[1]")] = 1e-3  # Pa, against mu[0] = 1e5 Pa: an Ogden term with ~zero modulus
+    msgs = diagnostics.degeneracies(form, t, CostFunction(form, [c1, c2]))
+    assert any(m.startswith("mu[1] = 0.001 Pa carries no modulus") for m in msgs), msgs
     # the true material is not degenerate (every term changes the predictions by > 0.1 %)
     assert diagnostics.degeneracies(form, th, CostFunction(form, [c1, c2])) == []
 
@@ -182,4 +185,3 @@ def test_cli_not_converged_warns_on_stderr_with_json_and_exits_0(tissue_case, mo
     assert d["convergence"]["converged"] is False
     assert any(w.startswith("fit NOT converged: KKT residual / O = 0.21") for w in d["warnings"])
     assert "fit NOT converged" in res.stderr
-    assert load_config(cfg_path).model.terms == 1

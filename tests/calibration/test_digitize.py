@@ -141,6 +141,13 @@ def test_lines_recovered_within_one_percent_and_csv_reads(two_curves, tmp_path):
     err = np.abs(curve.stress - ogden_uniaxial(1.0 + curve.strain)) / 2.0e6
     assert err.max() < 0.01
     assert (out / "check.png").is_file() and (out / "digitized.json").is_file()
+    # calibrate_data.toml: [[data]] tables that a config saved in the folder uses as they are
+    from tissuempm.calibration.config import load_config
+
+    (out / "fit.toml").write_text('[model]\nform = "neo_hookean"\n' + (out / "calibrate_data.toml").read_text())
+    cfg = load_config(out / "fit.toml")
+    assert [d.file for d in cfg.data] == ["ogden.csv", "exponential.csv"]
+    assert all(read_csv(out / d.file, mode=d.mode) for d in cfg.data)
 
 
 def test_settings_file_and_automatic_frame_limits(two_curves, tmp_path):
@@ -415,3 +422,12 @@ def test_fifo_and_oversized_images_are_refused(tmp_path, monkeypatch):
     monkeypatch.setattr(dg, "MAX_PIXELS", 100)
     with pytest.raises(dg.DigitizeError, match="20 x 10 pixels, more than the 100"):
         dg.read_image(tmp_path / "small.png")
+
+
+def test_points_that_are_no_loading_curve_are_refused():
+    """Compression plotted with positive stress (e.g. a mis-set y calibration): the stress sign check of
+    calibrate's data reader refuses it, named as a digitizing error that points to the check figure."""
+    x = np.linspace(-0.3, -0.01, 10)
+    d = dg.DigitizedCurve(dg.CurveSpec((0, 0, 0), "flipped"), x, x, x, 1e4 * x**2, 100, np.ones(10))
+    with pytest.raises(dg.DigitizeError, match="'flipped' is not a usable loading curve: .*wrong sign"):
+        dg.to_curve(d)

@@ -9,6 +9,7 @@ import math
 import tomllib
 
 import numpy as np
+from fuzzlib import damage
 import pytest
 
 from tissuempm.scenarios import checks
@@ -153,17 +154,7 @@ def test_damaged_files_give_named_errors(tmp_path):
     junk = [b"\x00", b"\xff", b"\xfe\xff", b"[", b"]", b"=", b'"', b"\n", b"inf", b"nan", b"{", b"}", b"#", b"[[body]]"]
     path = tmp_path / "s.toml"
     for _ in range(150):
-        data = bytearray(raw)
-        for _ in range(rng.integers(1, 6)):
-            at = int(rng.integers(len(data) + 1))
-            op = rng.integers(3)
-            if op == 0:
-                data[at : at + int(rng.integers(1, 20))] = b""
-            elif op == 1:
-                data[at:at] = junk[rng.integers(len(junk))]
-            else:
-                data = data[:at]
-        path.write_bytes(bytes(data))
+        path.write_bytes(damage(rng, raw, junk, max_ops=6))
         try:
             load_scenario(path)
         except ScenarioError:
@@ -176,9 +167,11 @@ def test_random_overrides_give_named_errors(tmp_path):
     path.write_text(BASE_TEXT)
     keys = ["solver.cfl", "grid.cell_size", "body[0].velocity", "body[5].shape", "materials.gel.C10",
             "run.end_time", "body[0].fiber.angle", "contact[0].mu", "amplitudes.ramp.points", "[", "a..b", "x[0][1]",
-            "boundary[1].amplitude", "materials.plate", "fixed[0].region.upper"]
+            "boundary[1].amplitude", "materials.plate", "fixed[0].region.upper", "name", "body[0].fiber.direction",
+            "body[0].fiber.axis"]
     values = ["0.1", "inf", "nan", "-1", '"5 mm"', "5 mm", "[1, 2]", "{ type = 'box' }", "[[0, 1]]", "", "=", "'",
-              "1e999", "true", '"\\u0000"']
+              "1e999", "true", '"\\u0000"', '"1 km^400"', '"1 mm^-400"', "[" * 3000 + "]" * 3000,
+              '"' + "x" * 20_000 + '"', '"1 x' + " " * 20_000 + 'y"', "[1e-200, 0, 0]", "[1e200, 1e200, 0]"]
     def pick(pool):
         return pool[rng.integers(len(pool))]
 

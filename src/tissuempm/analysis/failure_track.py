@@ -176,7 +176,7 @@ def track_failure(
     end = end_displacement if end_displacement is not None else np.inf
     while st.time < scenario.run.end_time * (1 - 1e-12):
         dt = solver.stable_dt(st)
-        solver.step(st, dt, problem.loading.at(st.time + 0.5 * dt))
+        solver.step(st, dt, problem.loading.at(st.time + 0.5 * dt, st))
         d_now, ids, x = displacement()
         if d_now < next_check:
             continue

@@ -22,7 +22,7 @@ import numpy as np
 
 from tissuempm.analysis.errors import AnalysisError
 from tissuempm.io import read_pvd
-from tissuempm.safety import InputLimitError, input_file, inside
+from tissuempm.safety import InputLimitError, clean, input_file, inside
 
 PVD = "particles.pvd"
 SCENARIO = "scenario.json"
@@ -157,7 +157,7 @@ class Run:
         try:
             grid = json.loads((self.path / SCENARIO).read_text())["grid"]
             return grid if isinstance(grid, dict) else {}
-        except (OSError, ValueError, KeyError, TypeError):
+        except (OSError, ValueError, KeyError, TypeError, RecursionError):
             return {}
 
     def grid_bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
@@ -176,7 +176,7 @@ class Run:
             summary = json.loads((self.path / SUMMARY).read_text())
             counts = {str(reason): int(entry["count"]) for reason, entry in summary["removed"].items()}
             return {**counts, "rigid": int(summary.get("removed_rigid", 0))}
-        except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        except (OSError, ValueError, KeyError, TypeError, AttributeError, RecursionError):
             return None
 
 
@@ -223,5 +223,5 @@ def _body_names(path: Path) -> list[str]:
         return [str(body["name"]) for body in scenario["body"]]
     except FileNotFoundError:
         raise AnalysisError(f"{path} not found: the run directory needs the scenario written by `tissuempm run`") from None
-    except (ValueError, KeyError, TypeError) as exc:
-        raise AnalysisError(f"{path}: cannot read the body names ({exc!r})") from None
+    except (ValueError, KeyError, TypeError, RecursionError) as exc:  # RecursionError: nested too deeply
+        raise AnalysisError(f"{path}: cannot read the body names ({clean(repr(exc))})") from None

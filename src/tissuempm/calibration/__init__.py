@@ -14,6 +14,7 @@ from tissuempm.calibration.fit import FitResult, fit, make_form
 from tissuempm.calibration.forms import FORMS, ModelForm
 from tissuempm.calibration.forward import predict, prony_convolution, uniaxial_response
 from tissuempm.calibration.optimizers import SearchSettings
+from tissuempm.calibration.selection import compare_forms
 
 __all__ = [
     "FORMS",
@@ -23,6 +24,7 @@ __all__ = [
     "FitResult",
     "ModelForm",
     "SearchSettings",
+    "compare_forms",
     "fit",
     "make_form",
     "normalized_error",

@@ -21,7 +21,7 @@ from tissuempm.calibration.config import CalibrationConfig, ConfigError, default
 from tissuempm.calibration.data import DataError, read_csv
 from tissuempm.calibration.fit import FitResult, fit, make_form
 from tissuempm.calibration.optimizers import SearchSettings
-from tissuempm.safety import message
+from tissuempm.safety import markup, message
 
 
 def run_config(cfg: CalibrationConfig, base: Path, progress=None) -> FitResult:
@@ -127,7 +127,7 @@ def _table(result: FitResult) -> Table:
             err_txt = "" if not se or se[i] != se[i] else f"{se[i]:.3g}"
         t.add_row(n, f"{result.parameters[n]:.5g}", result.units[n], err_txt)
     for c, o in zip(result.curves, result.costs):
-        t.add_row(escape(f"O[{c.name}]"), f"{o:.4g}", "-", f"w = {c.weight:g}" + ("" if c.weight else " (not fitted)"))
+        t.add_row(markup(f"O[{c.name}]"), f"{o:.4g}", "-", f"w = {c.weight:g}" + ("" if c.weight else " (not fitted)"))
     opt = result.optimality
     t.caption = (f"KKT residual / O = {opt.relative:.2g} (tolerance {opt.tolerance:g}): "
                  + ("converged local minimum" if opt.converged else "NOT converged to the tolerance"))
@@ -149,8 +149,8 @@ def _selection_table(sel: dict) -> tuple[Table, list[str]]:
             notes.append("not converged")
         if r["at_bound"]:
             notes.append("at bound: " + ", ".join(r["at_bound"]))
-        row = [escape(f"{r['form']}:{r['terms']}" + (" *" if notes else "")), str(r["k"]), f"{r['cost']:.4g}", f"{r['delta_aic']:.1f}",
-               f"{r['delta_bic']:.1f}", f"{r['akaike_weight']:.2g}"]
+        row = [escape(f"{r['form']}:{r['terms']}" + (" *" if notes else "")), str(r["k"]), f"{r['cost']:.4g}",
+               f"{r['delta_aic']:.1f}", f"{r['delta_bic']:.1f}", f"{r['akaike_weight']:.2g}"]
         if held:
             row.append(f"{r['holdout_cost']:.4g}")
         t.add_row(*row)
@@ -178,8 +178,9 @@ def _widening_lines(result: FitResult) -> list[str]:
         ch = "; ".join(f"{n} [{c['from'][0]:.4g}, {c['from'][1]:.4g}] -> [{c['to'][0]:.4g}, {c['to'][1]:.4g}]"
                        for n, c in st["widened"].items())
         hit = ", ".join(f"{n} = {st['before']['parameters'][n]:.5g} ({s})" for n, s in st["before"]["at_bound"].items())
+        kept = "" if st["adopted"] else " (higher: kept the first result)"
         out.append(f"default bound hit: {hit} at O = {st['before']['cost']:.4g}; widened {ch} and searched "
-                   f"again: O = {st['after']['cost']:.4g}" + ("" if st["adopted"] else " (higher: kept the first result)"))
+                   f"again: O = {st['after']['cost']:.4g}{kept}")
     return out
 
 
@@ -207,19 +208,22 @@ def check_output(out: Path, name: str) -> None:
 def calibrate(
     config: Annotated[Path, typer.Argument(help="calibration config file (TOML)")],
     out: Annotated[
-        Path | None, typer.Option("--out", help="output folder (default: <config stem>_calibration next to it)")
+        str | None, typer.Option("--out", help="output folder (default: <config stem>_calibration next to it)")
     ] = None,
     json_output: Annotated[bool, typer.Option("--json", help="print the result as JSON (for scripts)")] = False,
 ) -> None:
     """Fit a material model to stress-strain data files (seed 004 Sec. 2.3) and write the results."""
     err = Console(stderr=True)
+    if out is not None and not out.strip():
+        err.print("[red]error:[/red] --out '': give the output folder (or leave --out out for the default)")
+        raise typer.Exit(2)
     try:
         cfg = load_config(config)
     except ConfigError as e:
         err.print(f"[red]error:[/red] {message(e)}", highlight=False)
         raise typer.Exit(2) from None
     base = config.resolve().parent
-    out = out or base / f"{config.stem}_calibration"
+    out = Path(out) if out is not None else base / f"{config.stem}_calibration"
     name = cfg.output.name or default_name(config)
     try:
         check_output(out, name)

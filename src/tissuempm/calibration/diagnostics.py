@@ -158,9 +158,10 @@ def bound_report(form: ModelForm, theta: np.ndarray) -> dict[str, dict[str, Any]
     """For each parameter at a bound: ``{side, bound, source, widenable}`` (``widenable``: a default
     bound short of its physical limit)."""
     src = bound_sources(form)
+    hits = at_bound(form, theta)
     out = {}
     for p in form.params:
-        side = at_bound(form, theta)[p.name]
+        side = hits[p.name]
         if side is None:
             continue
         rule = _rule(p, form)
@@ -197,8 +198,9 @@ def degeneracies(form: ModelForm, theta: np.ndarray, objective=None) -> list[str
         for b in range(a + 1, len(ti)):
             t1, t2 = th[ti[a]], th[ti[b]]
             if abs(t1 - t2) <= TAU_RTOL * max(t1, t2):
+                g = th[form.indices("g")[a]] + th[form.indices("g")[b]]
                 msgs.append(f"relaxation times tau[{a}] = {t1:.4g} s and tau[{b}] = {t2:.4g} s are equal "
-                            f"(within {TAU_RTOL:g}): the two Prony terms act as one (g = {th[form.indices('g')[a]] + th[form.indices('g')[b]]:.4g})")
+                            f"(within {TAU_RTOL:g}): the two Prony terms act as one (g = {g:.4g})")
     ai, mi = form.indices("alpha"), form.indices("mu")
     for a in range(len(ai)):
         for b in range(a + 1, len(ai)):
@@ -245,7 +247,7 @@ def fit_warnings(result) -> list[str]:
             tail = " (a physical bound: not widened)"
         else:
             tail = f" (the physical limit {r['limit']:g} of its default bounds is reached)"
-        out.append(f"{name} = {result.parameters[name]:.5g} ends on its {r['side']} bound {r['bound']:.5g} ({why}){tail}: "
-                   "a constrained optimum; no standard error")
+        out.append(f"{name} = {result.parameters[name]:.5g} ends on its {r['side']} bound {r['bound']:.5g} "
+                   f"({why}){tail}: a constrained optimum; no standard error")
     out += degeneracies(result.form, result.theta, result.objective)
     return out

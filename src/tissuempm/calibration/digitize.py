@@ -50,6 +50,7 @@ Example
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal, Sequence
@@ -429,6 +430,7 @@ def _region_mask(shape: tuple[int, int], box: Box | None, exclude: Sequence[Box]
 
 
 def hex_color(rgb: Sequence[float]) -> str:
+    """``#rrggbb`` of an RGB triple in 0-255."""
     return "#" + "".join(f"{int(round(c)):02x}" for c in rgb)
 
 
@@ -446,11 +448,12 @@ def _line_points(mask: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray,
 
 
 def _marker_points(mask: np.ndarray, spec: CurveSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    from scipy import ndimage as ndi
     from skimage.measure import label, regionprops
-    from skimage.morphology import binary_opening, disk
+    from skimage.morphology import disk
 
-    if spec.opening:
-        mask = binary_opening(mask, disk(spec.opening))
+    if spec.opening:  # binary opening (erosion, then dilation) with a disk
+        mask = ndi.binary_opening(mask, structure=disk(spec.opening).astype(bool))
     labels = label(mask, connectivity=2)
     if spec.split:
         labels = _split_touching(mask, labels, spec.min_area)
@@ -640,6 +643,19 @@ def write_curves(
         write_csv(path, c, comment=note)
         files[d.spec.name] = path
     return files
+
+
+def data_tables(curves: Sequence[DigitizedCurve], files: dict[str, Path]) -> str:
+    """``[[data]]`` tables of a calibrate config reading the written CSV files (by file name: a config in the
+    output folder reads them as they are)."""
+    lines = ["# [[data]] tables for a tissuempm calibrate config: file names relative to this folder (a config",
+             "# saved here reads them as they are; elsewhere, prefix the folder)"]
+    for d in curves:
+        lines += ["", "[[data]]", f"file = {json.dumps(files[d.spec.name].name)}",
+                  f"mode = {json.dumps(MODE_ALIASES[d.spec.mode.lower()])}"]
+        if d.spec.strain_rate is not None:
+            lines.append(f"strain_rate = {d.spec.strain_rate!r}")
+    return "\n".join(lines) + "\n"
 
 
 def summary(curves: Sequence[DigitizedCurve], x_axis: Axis, y_axis: Axis, files: dict[str, Path] | None = None,

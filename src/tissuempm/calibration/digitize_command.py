@@ -179,6 +179,7 @@ def digitize(
         folder.mkdir(parents=True, exist_ok=True)
         check = dg.plot_check(rgb, curves, p.x_axis, p.y_axis, folder / "check.png", p.box)
         files = dg.write_curves(curves, folder, x_quantity=p.x_quantity, y_unit=p.y_unit, source=image_path.name)
+        (folder / "calibrate_data.toml").write_text(dg.data_tables(curves, files))
     except dg.DigitizeError as e:
         err.print(f"[red]error:[/red] {escape(str(e))}", highlight=False)
         raise typer.Exit(2) from None

@@ -118,8 +118,8 @@ class FitResult:
         return diagnostics.at_bound(self.form, self.theta)
 
     def warnings(self) -> list[str]:
-        """Not converged, parameters on a bound, degenerate terms (:func:`~tissuempm.calibration.diagnostics.fit_warnings`;
-        cached for the current parameters and optimality)."""
+        """Not converged, parameters on a bound, degenerate terms
+        (:func:`~tissuempm.calibration.diagnostics.fit_warnings`; cached for the current parameters and optimality)."""
         key = (tuple(self.theta), self.optimality.relative)
         cache = self.__dict__.get("_warnings")
         if cache is None or cache[0] != key:

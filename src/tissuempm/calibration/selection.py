@@ -77,13 +77,14 @@ def holdout_curves(curves: Sequence[Curve], selectors: Sequence[str]) -> list[Cu
         elif not hits and sel in MODE_ALIASES:
             hits = [i for i, c in enumerate(curves) if c.mode == MODE_ALIASES[sel]]
         if not hits:
+            modes = ", ".join(sorted({c.mode for c in curves}))
             raise ValueError(f"analysis.holdout: {sel!r} matches no data set: give a data-set name "
-                             f"({', '.join(c.name for c in curves)}), a mode ({', '.join(sorted(set(c.mode for c in curves)))}), "
-                             f"'tension' or 'compression'")
+                             f"({', '.join(c.name for c in curves)}), a mode ({modes}), 'tension' or 'compression'")
         held.update(hits)
     out = [replace(c, weight=0.0) if i in held else c for i, c in enumerate(curves)]
     if not any(c.weight > 0 for c in out):
-        raise ValueError(f"analysis.holdout = {list(selectors)} holds out every fitted data set: nothing is left to fit")
+        raise ValueError(f"analysis.holdout = {list(selectors)} holds out every fitted data set: "
+                         "nothing is left to fit")
     return out
 
 
@@ -97,9 +98,10 @@ def compare_forms(
 
     ``fit_one(form, terms, curves)`` returns a :class:`~tissuempm.calibration.fit.FitResult`
     (the command passes the config's settings). Returns ``{"holdout", "held_out", "rows", "failed",
-    "best", "definition"}`` (``failed``: forms with no feasible minimum, with the error); ``rows`` are sorted by AIC, each with ``label, form, terms, k, n, cost, rss, aic,
-    bic, delta_aic, delta_bic, akaike_weight, costs (O_m of the fitted sets), holdout_cost, holdout_costs, converged, at_bound,
-    warnings, parameters`` and the ranks ``rank_aic, rank_bic, rank_holdout``.
+    "best", "definition"}`` (``failed``: forms with no feasible minimum, with the error). ``rows`` are
+    sorted by AIC, each with ``label, spec, form, terms, k, n, cost, costs`` (O_m of the fitted sets)
+    ``, rss, aic, bic, delta_aic, delta_bic, akaike_weight, holdout_cost, holdout_costs, converged,
+    kkt_relative, at_bound, warnings, parameters`` and the ranks ``rank_aic, rank_bic, rank_holdout``.
     """
     from tissuempm.calibration.identifiability import information_criteria
 

@@ -6,8 +6,9 @@ existence check and the creation are one atomic step), so two runs started toget
 ``--out`` cannot both write there. The file holds ``pid host`` of its owner. A lock left by a
 process that was killed (SIGKILL: no ``finally`` ran) is stale: the next run on the same host
 finds its pid dead and takes the lock over (renaming the stale file away first, itself atomic).
-A lock of another host is never broken (its pid cannot be checked): the message says which file
-to remove.
+A lock of another host is not broken (its pid cannot be checked; the message says which file to
+remove) unless the caller knows its owner is gone: ``acquire(folder, take_over=True)``, which a study
+uses for a run that Dask hands to another worker after the first one died.
 """
 
 import contextlib
@@ -51,9 +52,9 @@ def _create(path: Path) -> bool:
     return True
 
 
-def acquire(folder: str | Path) -> Path:
+def acquire(folder: str | Path, take_over: bool = False) -> Path:
     """Create ``folder/.lock`` exclusively and return its path; :class:`FolderLockedError` when another
-    live process holds it. The folder must exist."""
+    live process holds it (``take_over``: a lock of another host counts as stale). The folder must exist."""
     path = Path(folder) / LOCK
     for _ in range(3):
         if _create(path):
@@ -61,7 +62,7 @@ def acquire(folder: str | Path) -> Path:
         pid, host = _owner(path)
         if pid is None:  # being written by its creator this instant, or damaged
             pid_text = "an unknown process"
-        elif host == socket.gethostname() and not _alive(pid):
+        elif (host == socket.gethostname() and not _alive(pid)) or (take_over and host != socket.gethostname()):
             stale = path.with_name(f"{LOCK}.stale{os.getpid()}")
             with contextlib.suppress(OSError):
                 os.replace(path, stale)  # only one of several takers moves this file

@@ -93,7 +93,9 @@ def reflected_peak(peak: float, ambient: float = P0_SEA_LEVEL) -> float:
     return 2.0 * peak * (7.0 * ambient + 4.0 * peak) / (7.0 * ambient + peak)
 
 
-def angle_factor(cos_theta: np.ndarray | float, incident: float, reflected: float, reflection: str = "conwep") -> np.ndarray:
+def angle_factor(
+    cos_theta: np.ndarray | float, incident: float, reflected: float, reflection: str = "conwep"
+) -> np.ndarray:
     """Peak overpressure [Pa] on a surface at incidence cos(theta) = -n . d for a ``reflection``
     rule of :data:`REFLECTIONS` (incident peak P_s, normal reflected peak P_r)."""
     c = np.asarray(cos_theta, dtype=float)

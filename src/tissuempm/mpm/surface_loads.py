@@ -298,7 +298,8 @@ class BlastLoad:
         s = t.scalar
         row, normal0, area0 = self._device_arrays(t, state.x.device)
         wp.launch(blast_kernel(t), dim=state.n, device=state.x.device,
-                  inputs=[state.x0, state.F, state.mass, state.id, row, normal0, area0, s(start), s(end), s(self.arrival_time),
+                  inputs=[state.x0, state.F, state.mass, state.id, row, normal0, area0, s(start), s(end),
+                          s(self.arrival_time),
                           t.vec3(*self.reference_point), t.vec3(*self.direction), s(1.0 / self.front_speed),
                           s(self.peak), s(self.reflected), s(self.duration), s(self.decay),
                           _MODES[self.reflection], out])  # fmt: skip

@@ -72,6 +72,7 @@ from tissuempm.io.frames import DEFAULT_FRAME_FIELDS, select_fields, state_names
 from tissuempm.io.head_history import head_history_columns
 from tissuempm.mpm import ExplicitSolver, ImplicitSolver, InstabilityError, State
 from tissuempm.mpm.state import REMOVAL_COLUMNS, REMOVAL_REASONS
+from tissuempm.safety import InputLimitError, inside
 from tissuempm.scenarios import run_folder
 from tissuempm.scenarios.build import Problem, build, implicit_config
 from tissuempm.scenarios.checks import check_device, stability_warnings
@@ -246,6 +247,11 @@ class Runner:
             step, time, wall = int(meta["step"]), float(meta["time"]), float(meta.get("wall_s", 0.0))
         except (KeyError, ValueError, TypeError, IndexError) as e:
             raise CheckpointError(f"{self.out / CHECKPOINT} is not a complete checkpoint of this run: {e}") from None
+        for _, rel in frames:  # listed in particles.pvd, deleted by truncate: never a file outside the folder
+            try:
+                inside(self.out, rel, "frame")
+            except InputLimitError as e:
+                raise CheckpointError(f"{self.out / CHECKPOINT} is damaged: {e}") from None
         end = self.scenario.run.end_time
         written_for = meta.get("end_time")  # a completed run's last step overshoots its end_time: no refusal
         reached = isinstance(written_for, (int, float)) and end >= written_for * (1.0 - 1e-12)
@@ -267,7 +273,7 @@ class Runner:
     # ------------------------------------------------------------------ loop
     def run(
         self, restart: bool = False, progress: Callable[[Progress], None] | None = None, overwrite: bool = False,
-        kernels: Callable[[int, int], None] | None = None,
+        kernels: Callable[[int, int], None] | None = None, take_over_lock: bool = False,
     ) -> RunResult:
         """Run to ``run.end_time`` (or ``run.max_steps``); see the module docstring.
 
@@ -282,7 +288,8 @@ class Runner:
         The folder is locked for the whole run (:mod:`tissuempm.io.lock`: a second run into it is
         refused with :class:`~tissuempm.scenarios.run_folder.OutputFolderError`); temporary files a
         killed run left (``.NAME.tmpPID``) are removed; a folder this call created is removed again
-        when the run fails leaving it empty.
+        when the run fails leaving it empty. ``take_over_lock``: a lock left by another host counts as
+        stale (a study's run retried by Dask on another worker after the first one died).
         """
         started = wallclock.perf_counter()
         run_folder.check(self.out, restart=restart, overwrite=overwrite)
@@ -290,7 +297,7 @@ class Runner:
         try:
             self.out.mkdir(parents=True, exist_ok=True)
             try:
-                held = lock.acquire(self.out)
+                held = lock.acquire(self.out, take_over=take_over_lock)
             except lock.FolderLockedError as e:
                 raise OutputFolderError(str(e)) from None
             try:

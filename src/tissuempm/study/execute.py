@@ -86,7 +86,8 @@ def execute(
             with _TURN:
                 job = Runner(load_scenario(scenario, run.overrides), out, device=device)
                 restart = (out / CHECKPOINT).exists()  # else: frames of a start killed before its first checkpoint
-                summary = job.run(restart=restart, progress=progress, overwrite=not restart).summary
+                summary = job.run(restart=restart, progress=progress, overwrite=not restart,
+                                  take_over_lock=True).summary  # Dask reruns a task only after its worker died
         except (ScenarioError, CheckpointError, ValueError) as e:
             return base_row(run, "failed", str(e))
         except Exception as e:  # noqa: BLE001 - any solver error is recorded, the study goes on

@@ -212,6 +212,16 @@ def test_line_progress_writes_time_step_rate_and_eta():
     assert lines[-1].endswith("ETA 0:00:00")
 
 
+def test_a_run_whose_stderr_is_no_terminal_prints_progress_lines(tmp_path):
+    """Issue 22 item 25: with stderr in a file the run printed nothing until it ended."""
+    res = run_cli(write(tmp_path, TINY), "--out", tmp_path / "out")  # CliRunner: not a terminal
+    assert res.exit_code == 0, res.output
+    lines = [line for line in res.output.splitlines() if " steps/s dt = " in line]
+    assert lines[0].split("Z ", 1)[1].startswith("step 1 t = 1 us / 20 us (5.0 %)")
+    assert lines[-1].split("Z ", 1)[1].startswith("step 20 t = 20 us / 20 us (100.0 %)")
+    assert lines[-1].endswith("ETA 0:00:00")
+
+
 @pytest.mark.slow
 def test_sigterm_keeps_the_checkpoint_and_the_log_shows_progress(tmp_path):
     """Issue 22 items 11 and 25, as a batch job sees them: stderr to a file (no terminal), SIGTERM at the
@@ -239,3 +249,23 @@ def test_sigterm_keeps_the_checkpoint_and_the_log_shows_progress(tmp_path):
     res = run_cli(path, "--out", out, "--restart", "--set", f"run.end_time={meta['time'] + 10e-6!r}")
     assert res.exit_code == 0, res.output
     assert read_checkpoint(out / CHECKPOINT)[1]["time"] == pytest.approx(meta["time"] + 10e-6)
+
+
+def test_a_checkpoint_naming_frames_outside_the_folder_is_refused(tmp_path):
+    """A restart takes its frame list from the checkpoint (and writes it to particles.pvd, which
+    ``wound`` reads; VTUSeries.truncate deletes listed files): a damaged ``meta`` naming ../victim.vtu
+    is refused before any of that."""
+    import h5py
+    import json
+
+    out = tmp_path / "out"
+    Runner(scenario(TINY), out).run()
+    victim = tmp_path / "victim.vtu"
+    victim.write_text("keep me")
+    with h5py.File(out / CHECKPOINT, "r+") as f:
+        meta = json.loads(f.attrs["meta"])
+        meta["frames"] = [[0.0, "frames/particles_00000.vtu"], [1e-6, "../victim.vtu"]]
+        f.attrs["meta"] = json.dumps(meta)
+    with pytest.raises(CheckpointError, match="is damaged: frame '../victim.vtu' lies outside"):
+        Runner(scenario(TINY, end_time="30 us"), out).run(restart=True)
+    assert victim.read_text() == "keep me"

@@ -43,9 +43,16 @@ def test_a_stale_lock_of_a_killed_process_is_taken_over(tmp_path):
     held = lock.acquire(tmp_path)
     assert held.read_text().split()[0] == str(os.getpid())
     lock.release(held)
-    (tmp_path / lock.LOCK).write_text("1 some-other-host\n")  # never broken: its pid cannot be checked
+    (tmp_path / lock.LOCK).write_text("1 some-other-host\n")  # not broken: its pid cannot be checked
     with pytest.raises(lock.FolderLockedError, match="some-other-host"):
         lock.acquire(tmp_path)
+    held = lock.acquire(tmp_path, take_over=True)  # a study's retry: the other host's worker died
+    assert held.read_text().split()[0] == str(os.getpid())
+    lock.release(held)
+    live = lock.acquire(tmp_path)  # a live lock of this host is never taken over
+    with pytest.raises(lock.FolderLockedError):
+        lock.acquire(tmp_path, take_over=True)
+    lock.release(live)
 
 
 def _race(folder, barrier, results):

@@ -99,3 +99,9 @@ def test_a_write_that_fails_leaves_no_result_and_no_library_entry(tmp_path, monk
     assert res.exit_code == 2, res.output
     assert "No space left on device" in res.output and "nothing was written" in " ".join(res.output.split())
     assert not out.exists()
+
+
+def test_an_empty_out_is_refused(tmp_path):
+    """Issue 22 item 8: ``--out ''`` was the current folder."""
+    res = CliRunner().invoke(app, ["calibrate", str(config(tmp_path)), "--out", ""])
+    assert res.exit_code == 2 and "--out '': give the output folder" in res.output
