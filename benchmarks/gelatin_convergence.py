@@ -73,9 +73,16 @@ def plot(records: list[dict]) -> None:
     for tag in sorted({r["tag"] for r in records}):
         rs = sorted((r for r in records if r["tag"] == tag), key=lambda r: -float(r["cell"].split()[0]))
         hs = [float(r["cell"].split()[0]) for r in rs]
-        a.plot(hs, [r["depth_mm"] for r in rs], "o-", label=tag)
-        for r in rs:
-            b.plot(r["t_ms"], r["v"], ls="-" if tag == "example" else "--", label=f"{tag}, h = {r['cell']}")
+        done = [(h, r) for h, r in zip(hs, rs) if r["status"] == "completed"]  # an unstable run has no depth
+        old = tag.endswith("(F-bar)")  # runs with F-bar, refused for axisymmetric models since: faded
+        style = {"alpha": 0.35, "lw": 1} if old else {}
+        a.plot([h for h, _ in done], [r["depth_mm"] for _, r in done], "o-" if not old else "o:", label=tag, **style)
+        for h, r in done:
+            if not math.isfinite(r["v_end_m_s"]):  # the sphere left the grid: it went through the block
+                a.annotate("perforates the block", (h, r["depth_mm"]), textcoords="offset points", xytext=(-110, -4),
+                           fontsize=8, arrowprops={"arrowstyle": "->"})  # fmt: skip
+        for r in rs if not old else []:
+            b.plot(r["t_ms"], r["v"], ls="--" if "no failure" in tag else "-", label=f"{tag}, h = {r['cell']}")
     for lo, hi, name, col in ((48.2, 51.2, "20 %, 10 C (Maiden 2015)", "tab:green"),
                               (77.0, 81.2, "20 %, 20 C (Maiden 2015)", "tab:orange"),
                               (75.0, 95.0, "10 %, 4 C (FBI window)", "tab:purple")):  # fmt: skip

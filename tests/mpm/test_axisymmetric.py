@@ -79,17 +79,27 @@ def _breathing(cells_per_radius: int, anti_locking: str) -> tuple[float, float]:
     return float(np.pi / half_periods.mean()), omega
 
 
-@pytest.mark.parametrize("anti_locking", ["none", "fbar"])
-def test_breathing_sphere_frequency(anti_locking):
+def test_breathing_sphere_frequency():
     """The breathing frequency of a free sphere (a volumetric 3-D mode: the hoop strain and force
     carry two thirds of it) within 2 % of Love's root at 8 cells per radius, closer at 12.
-    Measured: see docs/verification.md."""
+    Measured: -1.38 % and -0.57 % (docs/verification.md)."""
     err = {}
     for cells in (8, 12):
-        w, w_ref = _breathing(cells, anti_locking)
+        w, w_ref = _breathing(cells, "none")
         err[cells] = abs(w / w_ref - 1)
     assert err[8] < 0.02
     assert err[12] < 0.015
+
+
+def test_fbar_is_refused_for_axisymmetric_models():
+    """F-bar's stored volume correction breaks the hoop stretch r / r0 (module docstring of
+    tissuempm.mpm.axisymmetric: spurious plastic strain far from a gelatin tract): refused by name,
+    and the default for an axisymmetric model is 'none'."""
+    grid = Grid(origin=(0.0, 0.0, -0.5e-3), cell_size=1e-3, shape=(4, 4, 1))
+    model = Model(grid=grid, materials=[NeoHookean(C10=1e3, K=1e5)], boundaries=axis_faces(), axisymmetric=True)
+    with pytest.raises(ValueError, match="not available for axisymmetric"):
+        ExplicitSolver(model, SolverConfig(threads=1, anti_locking="fbar"))
+    assert ExplicitSolver(model, SolverConfig(threads=1)).anti_locking == "none"
 
 
 def _hertz_axisymmetric(cells_per_radius: float, v: float = 0.3):

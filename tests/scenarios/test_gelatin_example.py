@@ -1,6 +1,7 @@
 """examples/gelatin_sphere.toml at a coarse, fast level (2 mm cells, first 0.2 ms): the quarter model sets up
 and runs as documented. The depth against resolution is in docs/validation.md (benchmarks/gelatin_convergence.py)."""
 
+import copy
 import json
 import tomllib
 from pathlib import Path
@@ -71,3 +72,22 @@ def test_gelatin_sphere_axisymmetric_coarse_run(tmp_path):
     gel_mass = 2 * np.pi * 1030.0 * pd.volume[~sphere].sum()
     left, removed = summary["diagnostics"]["mass"], summary["removed"]
     assert left + removed["eroded"]["mass"] + removed["outflow"]["mass"] == pytest.approx(gel_mass, rel=1e-12)
+
+
+def test_axisymmetric_scenario_errors_are_named():
+    """A meridian-plane grid off the axis, another condition on its symmetry faces, or F-bar: named
+    scenario errors (exit 2 from the command line)."""
+    from tissuempm.scenarios.schema import ScenarioError
+
+    base = tomllib.loads(AXI.read_text())
+    cases = [
+        (['grid.lower=["1 mm", "-5 mm", 0]'], "starts at the axis"),
+        (['solver.anti_locking="fbar"'], "not available for axisymmetric"),
+    ]
+    for sets, message in cases:
+        with pytest.raises((ScenarioError, ValueError), match=message):
+            Scenario.from_dict(apply_overrides(copy.deepcopy(base), sets))
+    data = copy.deepcopy(base)
+    data["boundary"] = [*data["boundary"], {"axis": "z", "side": "lower", "kind": "fixed"}]
+    with pytest.raises((ScenarioError, ValueError), match="symmetry"):
+        Scenario.from_dict(data)

@@ -43,7 +43,7 @@ from tissuempm.mpm import kernels as K
 from tissuempm.mpm.config import Control, SolverConfig
 from tissuempm.mpm.contact import contact_kernel
 from tissuempm.mpm.errors import InstabilityError
-from tissuempm.mpm.axisymmetric import scale_extensive, scale_removed
+from tissuempm.mpm.axisymmetric import FBAR_AXISYMMETRIC, scale_extensive, scale_removed
 from tissuempm.mpm.free_bodies import FreeBodies
 from tissuempm.mpm.launch import Launcher
 from tissuempm.mpm.model import Model, ParticleData, RigidMaterial
@@ -137,7 +137,9 @@ class ExplicitSolver:
         slots = erosion_slots(model.materials)  # failure column of each eroding law (mpm.removal)
         self._erodes = bool(np.any(slots >= 0))
         self.erode_slot = wp.array(slots, dtype=wp.int32, device=self.device)
-        self.anti_locking = cfg.anti_locking or self.default_anti_locking
+        self.anti_locking = cfg.anti_locking or ("none" if self.axisymmetric else self.default_anti_locking)
+        if self.axisymmetric and self.anti_locking == "fbar":
+            raise ValueError(FBAR_AXISYMMETRIC)
         self.volumetric = CellAverage(self) if self.anti_locking == "fbar" else None
         # grid faces
         kinds = np.zeros(6, dtype=np.int32)

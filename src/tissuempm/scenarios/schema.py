@@ -953,6 +953,10 @@ class Scenario(Section):
                                  f"symmetry (slip) face, got kind = {bc.kind!r}")  # fmt: skip
         if self.solver.integrator == "implicit" or self.solver.grid == "no_reset":
             raise ValueError("grid.axisymmetric needs solver.integrator = 'explicit' and solver.grid = 'reset'")
+        if self.solver.anti_locking == "fbar":
+            from tissuempm.mpm.axisymmetric import FBAR_AXISYMMETRIC
+
+            raise ValueError(f"solver.{FBAR_AXISYMMETRIC}")
         given = {(bc.axis, bc.side) for bc in self.boundaries}
         extra = [BoundarySection(axis=a, side=side, kind="slip") for a, side in required if (a, side) not in given]
         object.__setattr__(self, "boundaries", [*self.boundaries, *extra])
