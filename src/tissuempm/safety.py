@@ -196,6 +196,28 @@ def parse_toml(text: str, what: str) -> dict[str, Any]:
     return data
 
 
+def read_toml_file(path: Path, kind: str, error: type[Exception]) -> dict[str, Any]:
+    """The table of the TOML file ``path`` (a ``kind`` file: "scenario", "study"), read with the
+    input limits (:func:`input_file`, :func:`parse_toml`); every way it can fail raises ``error``
+    with a message naming the file and the cause."""
+    try:
+        input_file(path, f"{kind} file")  # a FIFO would block, a huge file stall the parser
+        return parse_toml(path.read_text(encoding="utf-8"), str(path))
+    except InputLimitError as e:
+        raise error(str(e)) from None
+    except FileNotFoundError:
+        raise error(f"{kind} file {path} not found") from None
+    except IsADirectoryError:
+        raise error(f"{kind} file {path} is a folder, not a TOML file") from None
+    except UnicodeDecodeError as e:
+        raise error(f"{path} is not a text (UTF-8) file: byte {e.start} cannot be decoded; "
+                    f"a {kind} is a TOML text file") from None
+    except OSError as e:
+        raise error(f"cannot read {kind} file {path}: {e.strerror or e}") from None
+    except tomllib.TOMLDecodeError as e:
+        raise error(f"{path} is not valid TOML: {e}") from None
+
+
 def direction_problem(vector: Any) -> str | None:
     """Why ``vector`` (3 numbers) is no usable direction, or None: a non-finite component, all zero, or a
     length outside :data:`MIN_LENGTH` .. :data:`MAX_LENGTH` (``[1e-200, 0, 0]``, ``[1e200, 1e200, 0]``)."""

@@ -196,6 +196,12 @@ def default_name(config: Path) -> str:
 
 
 def _format(err: ValidationError, path: Path) -> str:
+    return f"{path}: invalid calibration config:\n  " + "\n  ".join(validation_messages(err))
+
+
+def validation_messages(err: ValidationError) -> list[str]:
+    """One line per problem of a pydantic ``err``, named by its key path: unknown and missing keys, or
+    the message and the value given (calibration configs, digitize settings)."""
     msgs = []
     for e in err.errors():
         loc = ".".join(str(x) for x in e["loc"])
@@ -205,7 +211,7 @@ def _format(err: ValidationError, path: Path) -> str:
             msgs.append(f"missing key {loc!r}")
         else:
             msgs.append(f"{loc}: {e['msg']} (got {e.get('input')!r})")
-    return f"{path}: invalid calibration config:\n  " + "\n  ".join(msgs)
+    return msgs
 
 
 def load_config(path: str | Path) -> CalibrationConfig:

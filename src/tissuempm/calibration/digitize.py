@@ -728,15 +728,9 @@ def validate_settings(raw: dict, origin: str = "settings"):
     try:
         return _settings_models().model_validate(raw)
     except ValidationError as err:
-        msgs = []
-        for e in err.errors():
-            loc = ".".join(str(x) for x in e["loc"])
-            if e["type"] == "extra_forbidden":
-                msgs.append(f"unknown key {loc!r}")
-            elif e["type"] == "missing":
-                msgs.append(f"missing key {loc!r}")
-            else:
-                msgs.append(f"{loc}: {e['msg']} (got {e.get('input')!r})")
+        from tissuempm.calibration.config import validation_messages
+
+        msgs = validation_messages(err)
         raise DigitizeError(f"{origin}: invalid digitize settings:\n  " + "\n  ".join(msgs)) from None
 
 

@@ -13,7 +13,7 @@ from tissuempm import stop
 from tissuempm.io import CheckpointError
 from tissuempm.safety import markup, message
 from tissuempm.scenarios import run_folder, runner
-from tissuempm.scenarios.progress_log import LineProgress
+from tissuempm.scenarios.progress_log import LineProgress, si_time
 from tissuempm.scenarios.run_folder import OutputFolderError
 from tissuempm.scenarios.schema import ScenarioError, load_scenario
 
@@ -24,15 +24,6 @@ def _fail(error: Exception | str) -> typer.Exit:
     """Print ``error`` (its text verbatim: ``[run]`` is no markup) and return the exit of status 2 to raise."""
     console.print(f"[red]error:[/red] {message(error)}", highlight=False)
     return typer.Exit(2)
-
-
-def _si_time(t: float) -> str:
-    if t == 0.0:
-        return "0 s"
-    for scale, unit in ((1.0, "s"), (1e-3, "ms"), (1e-6, "us")):
-        if abs(t) >= scale or unit == "us":
-            return f"{t / scale:.4g} {unit}"
-    return f"{t:g} s"
 
 
 class _Eta(ProgressColumn):
@@ -104,7 +95,7 @@ def run(
     try:
         with stop.sigterm_as_interrupt(), Progress(*columns, console=console, transient=False,
                                                    disable=plain is not None) as bar:
-            task = bar.add_task("running", total=sc.run.end_time, t=_si_time(0.0), end=_si_time(sc.run.end_time), sps=0.0)
+            task = bar.add_task("running", total=sc.run.end_time, t=si_time(0.0), end=si_time(sc.run.end_time), sps=0.0)
 
             def show(p: runner.Progress) -> None:
                 now = wallclock.perf_counter()
@@ -113,7 +104,7 @@ def run(
                 if now - last["wall"] < 0.1 and p.time < p.end_time:
                     return
                 last["wall"] = now
-                fields: dict[str, object] = {"t": _si_time(p.time), "sps": p.steps_per_s}
+                fields: dict[str, object] = {"t": si_time(p.time), "sps": p.steps_per_s}
                 if now > last["clock0"] and p.time > last["t0"]:
                     fields["rate"] = (p.time - last["t0"]) / (now - last["clock0"])
                 bar.update(task, completed=min(p.time, p.end_time), **fields)
@@ -143,13 +134,13 @@ def run(
     if result.status == "unstable":
         console.print(f"[red]stopped, the run went unstable:[/red] {message(result.message)}", highlight=False)
         console.print(
-            f"last checkpoint at t = {_si_time(s['checkpoint']['time'])} (step {s['checkpoint']['step']}) "
+            f"last checkpoint at t = {si_time(s['checkpoint']['time'])} (step {s['checkpoint']['step']}) "
             f"kept in {markup(out_dir / runner.CHECKPOINT, None)}", highlight=False
         )
         raise typer.Exit(1)
     t = s["timing"]
     console.print(
-        f"[green]{result.status}[/green]: t = {_si_time(result.time)} in {result.steps} steps, "
+        f"[green]{result.status}[/green]: t = {si_time(result.time)} in {result.steps} steps, "
         f"{s['wall_s']:.1f} s wall (solver {t['solver_s']:.1f} s, output {t['output_s']:.1f} s; start-up "
         f"{t['start_up_s']:.1f} s before); open {markup(out_dir / s['pvd'], None)} in ParaView"
     )

@@ -23,7 +23,8 @@ DEFAULT_EVERY_S = 30.0
 DEFAULT_EVERY_PERCENT = 5.0
 
 
-def _si_time(t: float) -> str:
+def si_time(t: float) -> str:
+    """A time [s] in s, ms or us with 4 significant digits (``0 s`` for zero)."""
     if t == 0.0:
         return "0 s"
     for scale, unit in ((1.0, "s"), (1e-3, "ms"), (1e-6, "us")):
@@ -102,5 +103,5 @@ class LineProgress:
         sim_rate = (p.time - t0) / elapsed if elapsed > 0 else 0.0
         left = (p.end_time - p.time) / sim_rate if sim_rate > 0 else None
         percent = 100.0 * p.time / p.end_time if p.end_time > 0 else 100.0
-        self._write(f"step {p.step} t = {_si_time(p.time)} / {_si_time(p.end_time)} ({percent:.1f} %) "
+        self._write(f"step {p.step} t = {si_time(p.time)} / {si_time(p.end_time)} ({percent:.1f} %) "
                     f"{rate:.0f} steps/s dt = {p.dt:.3g} s ETA {eta(left)}")

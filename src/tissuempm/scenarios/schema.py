@@ -1225,27 +1225,11 @@ def format_errors(error: ValidationError) -> str:
 def load_scenario(path: str | Path, overrides: list[str] | None = None) -> Scenario:
     """Read and validate a TOML scenario file, with ``overrides`` (``KEY=VALUE``,
     :mod:`tissuempm.scenarios.overrides`) applied before validation."""
+    from tissuempm.safety import read_toml_file
     from tissuempm.scenarios.overrides import apply_overrides
 
-    from tissuempm.safety import InputLimitError, input_file, parse_toml
-
     path = Path(path)
-    try:
-        input_file(path, "scenario file")  # a FIFO would block, a huge file stall the parser
-        data = parse_toml(path.read_text(encoding="utf-8"), str(path))
-    except InputLimitError as e:
-        raise ScenarioError(str(e)) from None
-    except FileNotFoundError:
-        raise ScenarioError(f"scenario file {path} not found") from None
-    except IsADirectoryError:
-        raise ScenarioError(f"scenario file {path} is a folder, not a TOML file") from None
-    except UnicodeDecodeError as e:
-        raise ScenarioError(f"{path} is not a text (UTF-8) file: byte {e.start} cannot be decoded; "
-                            "a scenario is a TOML text file") from None
-    except OSError as e:
-        raise ScenarioError(f"cannot read scenario file {path}: {e.strerror or e}") from None
-    except tomllib.TOMLDecodeError as e:
-        raise ScenarioError(f"{path} is not valid TOML: {e}") from None
+    data = read_toml_file(path, "scenario", ScenarioError)
     try:
         return Scenario.from_dict(apply_overrides(data, overrides or []), base=path.absolute().parent)
     except ScenarioError as e:

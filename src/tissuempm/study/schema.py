@@ -26,7 +26,6 @@ Bad input raises :class:`StudyError` naming each key (``parameter[1].num``) and 
 
 import dataclasses
 import re
-import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -258,25 +257,10 @@ def load_study(path: str | Path) -> Study:
 
     Raises :class:`StudyError` with one line per bad key (``parameter[0].num: ...``).
     """
-    from tissuempm.safety import InputLimitError, input_file, parse_toml
+    from tissuempm.safety import read_toml_file
 
     path = Path(path)
-    try:
-        input_file(path, "study file")  # a FIFO would block, a huge file stall the parser
-        data = parse_toml(path.read_text(encoding="utf-8"), str(path))
-    except InputLimitError as e:
-        raise StudyError(str(e)) from None
-    except FileNotFoundError:
-        raise StudyError(f"study file {path} not found") from None
-    except IsADirectoryError:
-        raise StudyError(f"study file {path} is a folder, not a TOML file") from None
-    except UnicodeDecodeError as e:
-        raise StudyError(f"{path} is not a text (UTF-8) file: byte {e.start} cannot be decoded; "
-                         "a study is a TOML text file") from None
-    except OSError as e:
-        raise StudyError(f"cannot read study file {path}: {e.strerror or e}") from None
-    except tomllib.TOMLDecodeError as e:
-        raise StudyError(f"{path} is not valid TOML: {e}") from None
+    data = read_toml_file(path, "study", StudyError)
     try:
         study = Study.model_validate(data)
     except ValidationError as e:
