@@ -91,3 +91,15 @@ def test_axisymmetric_scenario_errors_are_named():
     data["boundary"] = [*data["boundary"], {"axis": "z", "side": "lower", "kind": "fixed"}]
     with pytest.raises((ScenarioError, ValueError), match="symmetry"):
         Scenario.from_dict(data)
+
+
+def test_wound_analysis_refuses_an_axisymmetric_run(tmp_path):
+    """The wound measures are 3-D: an axisymmetric run folder is refused by name (exit 2 from the CLI)."""
+    from tissuempm.analysis import AnalysisError
+    from tissuempm.analysis.wound import analyse_wound
+
+    data = apply_overrides(tomllib.loads(AXI.read_text()),
+                           ['grid.cell_size="2 mm"', 'run.end_time="20 us"', 'run.output_interval="10 us"'])  # fmt: skip
+    assert Runner(Scenario.from_dict(data), tmp_path).run().status == "completed"
+    with pytest.raises(AnalysisError, match="axisymmetric run"):
+        analyse_wound(tmp_path)

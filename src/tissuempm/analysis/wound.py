@@ -106,9 +106,13 @@ def prepare(
     ------
     AnalysisError
         For a missing or malformed run, a frame out of range, a frame whose particle ids are not a
-        subset of frame 0's, unknown or unusable bodies.
+        subset of frame 0's, unknown or unusable bodies, or an axisymmetric run (its frames are the
+        meridian plane; the wound measures are 3-D).
     """
     run = Run(run_dir)
+    if run.grid_section().get("axisymmetric"):
+        raise AnalysisError(f"{run_dir} is an axisymmetric run (grid.axisymmetric = true): the wound analysis "
+                            "needs a 3-D run; its history.csv holds the projectile's depth and speed")
     index = run.resolve(frame)
     first = run.load(0)
     roles = assign_roles(first, run.body_names, projectile, tissue)
@@ -351,12 +355,8 @@ def analyse_wound(
     ------
     AnalysisError
         For a missing or malformed run, a frame out of range, unknown or unusable bodies, or an
-        axisymmetric run (its frames are the meridian plane; the wound measures are 3-D).
+        axisymmetric run (:func:`prepare`).
     """
-    grid = Run(run_dir).grid_section()
-    if grid.get("axisymmetric"):
-        raise AnalysisError(f"{run_dir} is an axisymmetric run (grid.axisymmetric = true): the wound analysis "
-                            "needs a 3-D run; its history.csv holds the projectile's depth and speed")
     setup = prepare(run_dir, frame, projectile, tissue)
     line, faces = setup.line, setup.faces
     tail = float(line.axial(projectile_points(setup)).min())
