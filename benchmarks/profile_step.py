@@ -54,6 +54,10 @@ TRAFFIC = {
     "stress": {"r": ["material", "F", "L", "fiber", "history", "stress", "volume0", "work", "v"],
                "w": ["history", "stress", "work"], "nodes": 0},
     "sort": {"r": ["x"], "w": [], "nodes": 0},
+    # F-bar (tissuempm.mpm.volumetric): "scratch" = bytes per particle of its own arrays (key 4, share 2 scalars, dJ 1)
+    "F-bar measure": {"r": ["x", "F", "L", "volume0", "material"], "w": [], "nodes": 0, "scratch": (4, 3)},
+    "F-bar sums": {"r": [], "w": [], "nodes": 0, "scratch": (4, 2)},  # each thread scans every key and share
+    "F-bar apply": {"r": ["F", "L"], "w": ["F", "L"], "nodes": 0, "scratch": (4, 1)},
 }
 
 
@@ -85,6 +89,9 @@ def phase_labels(solver) -> dict[int, str]:
     lab[id(kern.g2p(K.GRADIENT | K.POSITION))] = "G2P gradient"
     lab[id(kern.g2p(K.MOVE | K.GRADIENT | K.POSITION | K.SHARED))] = "G2P all"
     lab[id(kern.reaction)] = "reaction"
+    vol = getattr(solver, "volumetric", None)
+    if vol is not None:  # F-bar (the default anti-locking)
+        lab[id(vol.measure)], lab[id(vol.accumulate)], lab[id(vol.apply)] = "F-bar measure", "F-bar sums", "F-bar apply"
     for _, _, mk, _ in solver.laws:
         lab[id(mk.stress)] = "stress"
         lab[id(mk.speed)] = "CFL"
@@ -166,6 +173,8 @@ def profile(case, precision, threads, transfer, steps, cells, ppc, scenario=None
         nbytes = None
         if tr is not None:
             nbytes = st.n * sum(itemsize[a] for a in tr["r"] + tr["w"]) + n_nodes * rec_bytes * tr["nodes"]
+            if "scratch" in tr:  # (int32 count, scalar count) per particle
+                nbytes += st.n * (4 * tr["scratch"][0] + rec_bytes // 4 * tr["scratch"][1])
             if name == "sort":
                 nbytes /= solver.config.sort_interval  # once per sort_interval steps
         per_step = t / steps
@@ -210,7 +219,8 @@ def main() -> None:
               f"{r['step_ms']:.2f} ms/step, {r['particle_steps_per_s'] / 1e6:.2f} M particle-steps/s "
               f"({r['particle_steps_per_cpu_s'] / 1e6:.2f} M per CPU second); copy bandwidth "
               f"{r['copy_bandwidth_GBs']:.1f} GB/s -> memory bound {r['step_bound_ms']:.2f} ms/step "
-              f"({r['bound_particle_steps_per_s'] / 1e6:.1f} M/s)")  # fmt: skip
+              f"({r['bound_particle_steps_per_s'] / 1e6:.1f} M/s); "
+              f"load average {r['machine']['load_average']}")  # fmt: skip
         head = f"{'ms/step':>8s} {'ns/particle':>11s} {'B/particle':>10s} {'bound ms':>8s} {'x bound':>7s}"
         print(f"  {'phase':26s} {head}")
         for p in r["phases"]:

@@ -17,9 +17,8 @@ import importlib
 import json
 import warnings
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import TYPE_CHECKING, Annotated, NoReturn, cast
 
-import click
 import numpy as np
 import typer
 from rich.console import Console
@@ -30,6 +29,10 @@ from tissuempm import __version__
 from tissuempm.safety import MAX_POINTS, InputLimitError, direction_problem, markup, safe_name
 from tissuempm.safety import message as printable
 
+if TYPE_CHECKING:  # typer 0.29 runs on its own copy of Click (typer._click): the ctx it passes is that copy's
+    # Context, not click.Context, and typer exports no public name for its Command (annotations only)
+    from typer._click import Command, Context
+
 LAZY_COMMANDS: dict[str, tuple[str, str]] = {
     "calibrate": ("tissuempm.calibration.command", "calibrate"),
     "digitize": ("tissuempm.calibration.digitize_command", "digitize"),
@@ -38,18 +41,20 @@ LAZY_COMMANDS: dict[str, tuple[str, str]] = {
     "brain": ("tissuempm.analysis.brain_command", "brain"),
     "study": ("tissuempm.study.command", "study"),
     "head": ("tissuempm.head.command", "head"),
+    "warmup": ("tissuempm.mpm.warmup_command", "warmup"),
 }
 """Commands of the calibration, MPM, analysis and study subpackages: name -> (module, function or
-``typer.Typer`` group such as ``head``), imported only when the command is named (``tissuempm run`` loads neither SciPy's optimizers nor Dask)."""
+``typer.Typer`` group such as ``head``), imported only when the command is named (``tissuempm run`` loads
+neither SciPy's optimizers nor Dask)."""
 
 
 class _LazyGroup(TyperGroup):
     """The top-level group: :data:`LAZY_COMMANDS` are built from their modules on first use."""
 
-    def list_commands(self, ctx: click.Context) -> list[str]:
+    def list_commands(self, ctx: "Context") -> list[str]:
         return [*super().list_commands(ctx), *(n for n in LAZY_COMMANDS if n not in self.commands)]
 
-    def get_command(self, ctx: click.Context, cmd_name: str) -> Optional[click.Command]:
+    def get_command(self, ctx: "Context", cmd_name: str) -> "Command | None":
         if cmd_name in LAZY_COMMANDS and cmd_name not in self.commands:
             module, name = LAZY_COMMANDS[cmd_name]
             target = getattr(importlib.import_module(module), name)
@@ -73,7 +78,7 @@ console = Console()
 err_console = Console(stderr=True)
 
 
-def _fail(message: str) -> None:
+def _fail(message: str) -> NoReturn:
     err_console.print(f"[bold red]error:[/] {printable(message)}", highlight=False)
     raise typer.Exit(code=2)
 
@@ -92,7 +97,7 @@ def _version(value: bool) -> None:
 @app.callback()
 def main(
     version: Annotated[
-        Optional[bool], typer.Option("--version", callback=_version, is_eager=True, help="Print the version.")
+        bool | None, typer.Option("--version", callback=_version, is_eager=True, help="Print the version.")
     ] = None,
 ) -> None:
     """tissuempm: data -> calibrated model -> material library -> MPM injury simulation."""
@@ -208,7 +213,7 @@ def _parameter_rows(material, prefix: str = "") -> list[dict]:
 
     from tissuempm.materials import Material
 
-    rows = []
+    rows: list[dict] = []
     for f in dataclasses.fields(material):
         value = getattr(material, f.name)
         if isinstance(value, Material):
@@ -227,8 +232,8 @@ def _parameter_rows(material, prefix: str = "") -> list[dict]:
 
 def _parse_range(text: str) -> np.ndarray:
     try:
-        start, stop, n = text.split(":")
-        start, stop, n = float(start), float(stop), int(n)
+        start_text, stop_text, n_text = text.split(":")
+        start, stop, n = float(start_text), float(stop_text), int(n_text)
     except ValueError:
         _fail(f"--stretch {text!r}: expected START:STOP:N, e.g. 0.7:1.5:17")
     if not 1 <= n <= MAX_POINTS or not (np.isfinite(start) and np.isfinite(stop)):
@@ -259,14 +264,14 @@ def materials_stress(
         "0.7:1.5:17"
     ),
     rate: Annotated[
-        Optional[float], typer.Option(help="Engineering strain rate [1/s], > 0 (loading or unloading follows the "
+        float | None, typer.Option(help="Engineering strain rate [1/s], > 0 (loading or unloading follows the "
                                       "stretches); omit for quasi-static.")
     ] = None,
-    fiber: Annotated[Optional[str], typer.Option(help="Fiber direction X,Y,Z of anisotropic laws.")] = None,
+    fiber: Annotated[str | None, typer.Option(help="Fiber direction X,Y,Z of anisotropic laws.")] = None,
     json_output: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
 ) -> None:
     """Homogeneous stress-strain response computed with the solver's own stress code."""
-    from tissuempm.materials.drivers import MODES, DriverError, stress_strain
+    from tissuempm.materials.drivers import MODES, DriverError, Mode, stress_strain
 
     if mode not in MODES:
         _fail(f"--mode {mode!r} is not valid: choose one of {', '.join(MODES)}")
@@ -278,7 +283,7 @@ def materials_stress(
         _fail("--stretch: stretches must be > 0")
     material = _entry(name).material
     try:
-        res = stress_strain(material, mode, lam, rate=rate, fiber=_parse_fiber(fiber))
+        res = stress_strain(material, cast(Mode, mode), lam, rate=rate, fiber=_parse_fiber(fiber))  # mode in MODES
     except (DriverError, ValueError) as exc:
         _fail(str(exc))
     failure = res.failure
@@ -316,7 +321,7 @@ def materials_plot(
         typer.Option("-o", "--output",
                      help="Figure to write (.png added without a suffix), or an existing folder: NAME.png in it."),
     ],
-    fiber: Annotated[Optional[str], typer.Option(help="Fiber direction X,Y,Z of anisotropic laws.")] = None,
+    fiber: Annotated[str | None, typer.Option(help="Fiber direction X,Y,Z of anisotropic laws.")] = None,
 ) -> None:
     """Plot uniaxial nominal stress over -30%..+30% strain at several strain rates (seed 004 figs 13-32)."""
     from tissuempm.io import folder_problem

@@ -10,10 +10,10 @@ import json
 import shutil
 
 import numpy as np
-from fuzzlib import damage
 import pytest
 from wound_testlib import TIMES, Synthetic
 
+from fuzzlib import damage
 from tissuempm.analysis.errors import AnalysisError
 from tissuempm.analysis.wound import prepare
 from tissuempm.io import VTUSeries

@@ -10,7 +10,8 @@ import typer
 from typer.testing import CliRunner
 
 from tissuempm.calibration import command as command_module
-from tissuempm.calibration import diagnostics, identifiability as ident
+from tissuempm.calibration import diagnostics
+from tissuempm.calibration import identifiability as ident
 from tissuempm.calibration.command import calibrate, run_config
 from tissuempm.calibration.cost import CostFunction
 from tissuempm.calibration.data import Curve, write_csv

@@ -40,10 +40,11 @@ def config(tmp_path: Path, model="", data="", optimizer="", output="") -> Path:
         ({"optimizer": "seed = -1"}, "optimizer.seed: Input should be greater than or equal to 0"),
         ({"model": "stability_range = [1.5, 0.8]"}, "stability_range = [lo, hi] needs stretches 0 < lo < hi"),
         ({"model": "stability_range = [-1.0, 1.2]"}, "needs stretches 0 < lo < hi (got [-1, 1.2])"),
-        ({"output": "plot_rates = [0.0, 1.0]"}, "output.plot_rates.0: Input should be greater than 0"),
-        ({"output": "plot_rates = [-1.0]"}, "output.plot_rates.0: Input should be greater than 0"),
-        ({"output": "plot_rates = [inf]"}, "output.plot_rates.0: Input should be a finite number"),
-        ({"data": "points = 10000000000000"}, "data.0.points: Input should be less than or equal to 10000"),
+        # issue 24: one error formatter for every config file, list items as the file writes them ([0])
+        ({"output": "plot_rates = [0.0, 1.0]"}, "output.plot_rates[0]: Input should be greater than 0"),
+        ({"output": "plot_rates = [-1.0]"}, "output.plot_rates[0]: Input should be greater than 0"),
+        ({"output": "plot_rates = [inf]"}, "output.plot_rates[0]: Input should be a finite number"),
+        ({"data": "points = 10000000000000"}, "data[0].points: Input should be less than or equal to 10000"),
     ],
 )
 def test_nonsense_settings_are_named(tmp_path, keys, message):

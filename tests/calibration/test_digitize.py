@@ -342,7 +342,7 @@ def test_bad_options(two_curves, tmp_path):
     _error(_run([str(f.path), *cal, "--color", "C0", "--kind", "dots"]), "kind")
     _error(_run([str(f.path), "--color", "C0"]), "x: no axis calibration")
     (tmp_path / "s.toml").write_text('[x]\npoints = [[1, 0], [2, 1]]\nsclae = "log"\n')
-    _error(_run([str(f.path), "--config", str(tmp_path / "s.toml"), "--color", "C0"]), "unknown key 'x.sclae'")
+    _error(_run([str(f.path), "--config", str(tmp_path / "s.toml"), "--color", "C0"]), "x.sclae: unknown key")  # issue 24: one formatter
 
 
 def test_axis_round_trip_and_docstring_numbers():

@@ -70,7 +70,7 @@ def test_synthetic_head_volumes_match_the_ellipsoids(h):
 def test_label_table_maps_to_the_library():
     """Every label names a tissue of seed 004's Table 1 in the library; the shipped TOML is the table."""
     assert sorted(HEAD_LABELS) == list(range(1, 12))
-    for value, (name, entry) in HEAD_LABELS.items():
+    for value, (_name, entry) in HEAD_LABELS.items():
         assert library.get(entry).table in ("A1", "A2", "A3", "A4"), (value, entry)
     assert HEAD_LABELS[LABEL["skull_diploe"]][1] == "skull_cancellous"
     assert HEAD_LABELS[LABEL["scalp"]][1] == "skin"

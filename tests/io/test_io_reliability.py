@@ -9,8 +9,7 @@ import h5py
 import numpy as np
 import pytest
 
-from tissuempm.io import CheckpointError, read_checkpoint, write_checkpoint
-from tissuempm.io import lock
+from tissuempm.io import CheckpointError, lock, read_checkpoint, write_checkpoint
 from tissuempm.io.staging import staged
 
 

@@ -286,7 +286,7 @@ def test_tangent_and_moduli_intact_and_failed():
             np.testing.assert_array_equal(KG, 0.0)
         else:
             sig_base = PointEvaluator(NH)
-            residual = lambda F: m.residual_stress(sig_base(F[None], np.zeros((1, 3, 3)), NH.initial_state(), 1e30)[0][0])  # noqa: E731
+            residual = lambda F: m.residual_stress(sig_base(F[None], np.zeros((1, 3, 3)), NH.initial_state(), 1e30)[0][0])  # noqa: E731, B023
             Cfd = fd_tangent(residual, F)
             # both central differences (h = 6e-6 and 1e-6): truncation ~ h^2, round-off ~ 1e-16 K / h
             np.testing.assert_allclose(C, Cfd, atol=1e-6 * np.abs(Cfd).max())

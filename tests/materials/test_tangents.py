@@ -26,7 +26,7 @@ import pytest
 import warp as wp
 
 import tissuempm.materials  # noqa: F401  (registers every law)
-from tissuempm.materials import MATERIALS, FailureMode, HGO, TwoSurfaceFailure, Weiss
+from tissuempm.materials import HGO, MATERIALS, FailureMode, TwoSurfaceFailure, Weiss
 from tissuempm.materials.drivers import PointEvaluator
 from tissuempm.materials.kinematics import mat66
 from tissuempm.materials.tangent import VOIGT
@@ -253,7 +253,7 @@ def test_failure_tangent_keeps_only_intact_constituents(code, rng):
         a = FIBER / np.linalg.norm(FIBER)
 
         def sigma(F, base=base):
-            sm, sf, sv = base.cauchy_parts(F, a)
+            sm, sf, sv = base.cauchy_parts(F, a)  # noqa: B023 (used in this iteration)
             out = np.zeros((3, 3))
             if not code & FailureMode.MATRIX:
                 out += sm + sv

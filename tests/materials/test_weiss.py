@@ -242,6 +242,97 @@ def test_wave_moduli_bound_acoustic_tensor(kin, rng):
         assert _max_acoustic(m, F, a0, nrm) <= K + 4.0 * G / 3.0
 
 
+@functools.cache
+def _stress_moduli_kernel(cls):
+    t = warp_types("float64")
+    fn = cls.stress_moduli_function("float64")
+
+    @wp.kernel(module="unique")
+    def k(F: wp.array(dtype=t.mat33), a0: t.vec3, prm: wp.array(dtype=t.scalar), s_in: wp.array2d(dtype=t.scalar),
+          s_out: wp.array2d(dtype=t.scalar), sig: wp.array(dtype=t.mat33), out: wp.array(dtype=t.vec3)):  # fmt: skip
+        i = wp.tid()
+        S, K, G = fn(F[i], t.mat33(), a0, prm, s_in, s_out, i, t.scalar(1e-6))
+        sig[i] = S
+        out[i] = t.vec3(K, G, t.scalar(0.0))
+
+    return k
+
+
+def _stress_moduli(m, F, a0, state=None, history=False):
+    """(sigma, K, G) of ``m.stress_moduli_function`` at ``F`` (history row ``state``, default initial),
+    and the new history row with ``history``."""
+    t = warp_types("float64")
+    row = m.initial_state() if state is None else np.asarray(state, dtype=float)
+    sig = wp.zeros(1, dtype=t.mat33, device="cpu")
+    out = wp.zeros(1, dtype=t.vec3, device="cpu")
+    s_out = wp.zeros((1, row.size), dtype=t.scalar, device="cpu")
+    wp.launch(
+        _stress_moduli_kernel(type(m)), 1, device="cpu",
+        inputs=[wp.array(F[None], dtype=t.mat33, device="cpu"), t.vec3(*a0),
+                wp.array(m.pack(), dtype=t.scalar, device="cpu"), wp.array(row[None], dtype=t.scalar, device="cpu"),
+                s_out, sig, out],
+    )  # fmt: skip
+    res = (sig.numpy()[0], *out.numpy()[0, :2])
+    return (*res, s_out.numpy()[0]) if history else res
+
+
+@pytest.mark.parametrize("kin", KINEMATICS)
+@pytest.mark.parametrize("vol", ["log", "abaqus"])
+def test_stress_and_moduli_in_one_call(kin, vol, rng):
+    """The explicit stress pass's single call (stress_moduli_function: the stress and the wave
+    moduli from one evaluation of the invariants) gives the NumPy closed-form Cauchy stress and
+    moduli that bound the finite-difference acoustic tensor, as the moduli function's do; with
+    the two-surface failure layer a completely failed particle has no stress and no wave speed."""
+    from tissuempm.materials import TwoSurfaceFailure
+
+    m = Weiss.example().replace(fiber_kinematics=kin, volumetric=vol)
+    a0 = np.array([0.6, 0.8, 0.0])
+    normals = rng.normal(size=(40, 3))
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    cases = [np.eye(3), np.diag([1.2, 0.95, 0.9])] + [np.eye(3) + 0.25 * rng.normal(size=(3, 3)) for _ in range(8)]
+    for F in cases:
+        if np.linalg.det(F) < 0.4:
+            continue
+        sig, K, G = _stress_moduli(m, F, a0)
+        np.testing.assert_allclose(sig, m.cauchy_stress(F, a0), rtol=1e-10, atol=1e-9 * m.K)
+        nrm = np.vstack([normals, F @ a0 / np.linalg.norm(F @ a0)])
+        assert _max_acoustic(m, F, a0, nrm) <= K + 4.0 * G / 3.0
+    failing = TwoSurfaceFailure(base=m, gamma_max=0.05, eps_max=0.05)
+    F = np.diag([1.3, 0.9, 0.9])  # fiber strain 0.3 (along a0 partly) and shear strain > 0.05: both fail
+    sig, K, G = _stress_moduli(failing, F, np.array([1.0, 0.0, 0.0]))
+    assert not np.any(sig) and K == 0.0 and G == 0.0
+    intact = TwoSurfaceFailure(base=m, gamma_max=10.0, eps_max=10.0)
+    F = np.diag([1.1, 0.97, 0.96])
+    sig, K, G = _stress_moduli(intact, F, a0)
+    np.testing.assert_allclose(sig, m.cauchy_stress(F, a0), rtol=1e-10, atol=1e-9 * m.K)
+    assert (K, G) == pytest.approx(tuple(_stress_moduli(m, F, a0)[1:]), rel=1e-14)
+
+
+@pytest.mark.parametrize("convention", ["seed", "uintah"])
+def test_one_call_failure_measures_match_eigvalsh(convention, rng):
+    """The failure layer's single call takes the shear measure from the deviator of Bb = J^(-2/3) F F^T
+    that the stress has formed (F F^T and C = F^T F have the same eigenvalues): the history it writes
+    is NumPy's (E1 - E3)/2 or E1 - E3 of eigvalsh(C) (to 1e-11: the closed form's constants are float64)
+    and lam - 1, as running maxima from the previous row."""
+    from tissuempm.materials import TwoSurfaceFailure
+    from tissuempm.materials.failure import shear_strain_measure
+
+    law = TwoSurfaceFailure(base=Weiss.example(), gamma_max=10.0, eps_max=10.0, convention=convention)
+    a0 = np.array([0.0, 0.6, 0.8])
+    for F in [np.diag([1.2, 1.0, 1.0 / 1.2])] + [np.eye(3) + 0.2 * rng.normal(size=(3, 3)) for _ in range(10)]:
+        if np.linalg.det(F) < 0.3:
+            continue
+        *_, row = _stress_moduli(law, F, a0, history=True)
+        gam = shear_strain_measure(F, convention)
+        assert row[0] == 0.0
+        assert row[1] == pytest.approx(gam, rel=1e-11, abs=1e-14)
+        assert row[2] == pytest.approx(max(np.linalg.norm(F @ a0) - 1.0, 0.0), rel=1e-13, abs=1e-15)  # from 0
+        *_, kept = _stress_moduli(law, F, a0, state=[0.0, gam + 0.5, 0.0], history=True)
+        assert kept[1] == gam + 0.5  # the running maximum
+    *_, row = _stress_moduli(law, np.eye(3) * 1.1, a0, history=True)  # a dilatation: no shear
+    assert row[1] == pytest.approx(0.0, abs=1e-15)
+
+
 def test_header_wave_moduli_and_pack():
     m = Weiss.example()
     K, G = m.wave_moduli()

@@ -53,7 +53,7 @@ def test_contact_pairs_that_bonds_contradict_are_refused():
         )
     with pytest.raises(ValueError, match="unknown body 'z'"):
         assign_fields(["a", "b"], {("a", "z"): ContactLaw("frictionless")})
-    with pytest.raises(ValueError, match="only valid with kind 'friction'"):
+    with pytest.raises(ValueError, match="only valid with kind = 'friction'"):  # issue 24: the rule [[contact]] shares
         ContactLaw("frictionless", 0.3)
 
 

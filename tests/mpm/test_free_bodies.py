@@ -6,8 +6,19 @@ import pytest
 from mpm_testlib import block
 
 from tissuempm.materials import NeoHookean
-from tissuempm.mpm import (Contact, ContactLaw, ExplicitSolver, Grid, ImplicitConfig, ImplicitSolver, Model,
-                           ParticleData, RigidMaterial, SolverConfig, State)  # fmt: skip
+from tissuempm.mpm import (
+    Contact,
+    ContactLaw,
+    ExplicitSolver,
+    Grid,
+    ImplicitConfig,
+    ImplicitSolver,
+    Model,
+    ParticleData,
+    RigidMaterial,
+    SolverConfig,
+    State,
+)
 
 SOFT = NeoHookean(C10=5e3, K=1e5, density=1000.0)
 H = 2e-3

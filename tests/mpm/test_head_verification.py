@@ -136,8 +136,8 @@ def _acoustic_series(c0: float, n_modes: int = 10):
     roots = [optimize.brentq(dj1, grid[i], grid[i + 1]) for i in np.flatnonzero(np.sign(vals[:-1]) != np.sign(vals[1:]))]
     k = np.array(roots[:n_modes]) / R
     c = np.array([
-        integrate.quad(lambda r: r**3 * special.spherical_jn(1, kk * r), 0, R)[0]
-        / integrate.quad(lambda r: r**2 * special.spherical_jn(1, kk * r) ** 2, 0, R)[0]
+        integrate.quad(lambda r: r**3 * special.spherical_jn(1, kk * r), 0, R)[0]  # noqa: B023
+        / integrate.quad(lambda r: r**2 * special.spherical_jn(1, kk * r) ** 2, 0, R)[0]  # noqa: B023
         for kk in k
     ])  # fmt: skip
     return k, c

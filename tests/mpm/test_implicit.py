@@ -7,8 +7,17 @@ from mpm_testlib import Uniaxial1D, block
 from test_verification import rod, side_walls
 
 from tissuempm.materials import NeoHookean, Weiss
-from tissuempm.mpm import (Control, Grid, GridBoundary, ImplicitConfig, ImplicitSolver, InstabilityError, Model, ParticleData,
-                           SolverConfig)  # fmt: skip
+from tissuempm.mpm import (
+    Control,
+    Grid,
+    GridBoundary,
+    ImplicitConfig,
+    ImplicitSolver,
+    InstabilityError,
+    Model,
+    ParticleData,
+    SolverConfig,
+)
 
 
 @pytest.mark.parametrize("law, shape", [("neo_hookean", "linear"), ("weiss", "gimp")])

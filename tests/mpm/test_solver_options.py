@@ -29,7 +29,7 @@ def test_a_step_after_load_kernels_loads_nothing(transfer, fields):
     solver, st = pressed_block(transfer, fields)
     counts = []
     solver.load_kernels(lambda done, total: counts.append((done, total)))
-    assert counts[-1][0] == counts[-1][1] == len(solver.step_kernels())
+    assert counts[-1][0] == counts[-1][1] == len(solver.startup_kernels())
     loaded = set(solver._loaded)
     solver.step(st)
     solver.step(st)

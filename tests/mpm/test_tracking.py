@@ -8,12 +8,11 @@ stress of that F.
 
 import numpy as np
 import pytest
+from mpm_testlib import lattice
 
 from tissuempm.materials import NeoHookean
 from tissuempm.mpm import ExplicitSolver, Grid, Model, ParticleData, SolverConfig, State
 from tissuempm.mpm.tracking import TRACK_FIELDS, check_track, log_strain
-
-from mpm_testlib import lattice
 
 H = 0.01
 

@@ -10,7 +10,6 @@ from tissuempm.io import read_checkpoint, read_pvd
 from tissuempm.scenarios.runner import CHECKPOINT, Runner
 from tissuempm.scenarios.schema import Scenario
 
-
 # A 4 x 4 x 4 mm neo-Hookean gel cube (8 particles per cell, 512 particles) in an 8 x 6 x 6 mm grid.
 GEL = """
 name = "gel"

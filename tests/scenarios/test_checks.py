@@ -15,7 +15,6 @@ from tissuempm.scenarios.geometry import Box, Sphere, count_inside, lattice_rang
 from tissuempm.scenarios.schema import ScenarioError
 
 
-
 def said(res):
     return " ".join(res.output.split())
 

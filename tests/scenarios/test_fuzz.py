@@ -9,9 +9,9 @@ import math
 import tomllib
 
 import numpy as np
-from fuzzlib import damage
 import pytest
 
+from fuzzlib import damage
 from tissuempm.scenarios import checks
 from tissuempm.scenarios.build import build
 from tissuempm.scenarios.schema import Scenario, ScenarioError, load_scenario

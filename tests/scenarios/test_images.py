@@ -16,9 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tissuempm.scenarios import ScenarioError, load_scenario
-from tissuempm.scenarios import images
-from tissuempm.scenarios.build import seed_particles, build_model
+from tissuempm.scenarios import ScenarioError, images, load_scenario
+from tissuempm.scenarios.build import build_model, seed_particles
 from tissuempm.scenarios.schema import Scenario
 
 CENTRE = np.array([0.004, -0.003, 0.002])  # world centre of the outer ellipsoid [m]

@@ -69,7 +69,7 @@ def test_deeply_nested_toml_is_a_named_error(tmp_path):
 
 def test_absurd_unit_exponents_are_named_errors(tmp_path):
     for text in ("1 km^400", "1 mm^-400"):
-        refused_fast(lambda: parse_quantity(text, "m"), "power -?400 .* out of range: valid powers are -12..12")
+        refused_fast(lambda: parse_quantity(text, "m"), "power -?400 .* out of range: valid powers are -12..12")  # noqa: B023
     path = write(tmp_path, TINY)
     refused_fast(lambda: load_scenario(path, ['grid.cell_size="1 km^400"']), "grid.cell_size: .*power 400")
     assert parse_quantity("1 g/cm^3", "kg/m^3") == pytest.approx(1000.0)  # ordinary powers still work
@@ -255,8 +255,9 @@ def test_a_checkpoint_naming_frames_outside_the_folder_is_refused(tmp_path):
     """A restart takes its frame list from the checkpoint (and writes it to particles.pvd, which
     ``wound`` reads; VTUSeries.truncate deletes listed files): a damaged ``meta`` naming ../victim.vtu
     is refused before any of that."""
-    import h5py
     import json
+
+    import h5py
 
     out = tmp_path / "out"
     Runner(scenario(TINY), out).run()

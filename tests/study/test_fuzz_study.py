@@ -7,9 +7,9 @@ import time
 import tomllib
 
 import numpy as np
-from fuzzlib import damage
 from study_testlib import BLOCK
 
+from fuzzlib import damage
 from tissuempm.study import StudyError, load_study
 from tissuempm.study.runner import check
 from tissuempm.study.sampling import toml_value

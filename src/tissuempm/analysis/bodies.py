@@ -3,7 +3,7 @@
 * projectile: the body named by the caller, else the body with the largest initial kinetic energy
   ``K_b = 1/2 sum_{p in b} m_p |v_p|^2`` (frame 0 masses and velocities);
 * tissue: the bodies named by the caller, else every other body whose particles all have a failure
-  model (``failure >= 0``; laws without one write -1, rigid drivers included).
+  model (``failure >= 0``; laws without one write ``NO_FAILURE_MODEL`` = -1, rigid drivers included).
 """
 
 from collections.abc import Sequence
@@ -13,6 +13,7 @@ import numpy as np
 
 from tissuempm.analysis.errors import AnalysisError
 from tissuempm.analysis.frames import Frame
+from tissuempm.materials.failure import FailureMode
 
 
 @dataclass(frozen=True)
@@ -46,7 +47,7 @@ def _index(names: Sequence[str], name: str, option: str) -> int:
 
 def _has_failure(first: Frame, body: int) -> bool:
     failure = first.fields["failure"][first.fields["body"] == body]
-    return failure.size > 0 and bool(np.all(failure >= 0))
+    return failure.size > 0 and bool(np.all(failure >= FailureMode.INTACT))  # not NO_FAILURE_MODEL (-1)
 
 
 def _pick_projectile(first: Frame, names: Sequence[str]) -> int:
@@ -79,7 +80,8 @@ def assign_roles(
     names = tuple(names)
     present = set(np.unique(first.fields["body"]).tolist())
     if not present <= set(range(len(names))):
-        raise AnalysisError(f"the body field holds indices {sorted(present)} but scenario.json names {len(names)} bodies")
+        raise AnalysisError(f"the body field holds indices {sorted(present)} but scenario.json names "
+                            f"{len(names)} bodies")
     proj = _index(names, projectile, "--projectile") if projectile is not None else _pick_projectile(first, names)
     if tissue is None:
         chosen = tuple(b for b in range(len(names)) if b != proj and _has_failure(first, b))

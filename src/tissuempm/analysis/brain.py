@@ -261,7 +261,9 @@ def _head_from_frames(run_dir: Path, sc: dict[str, Any], skull: str) -> tuple[np
         if not sel.any():
             break
         _, vc, om = rigid_motion(fr.points[sel], fr.fields["velocity"][sel], fr.fields["mass"][sel])
-        t.append(fr.time), vs.append(vc), ws.append(om)
+        t.append(fr.time)
+        vs.append(vc)
+        ws.append(om)
     t_, v, w = np.array(t), np.array(vs), np.array(ws)
     dt = np.diff(t_)[:, None]
     nan = np.full((1, 3), np.nan)
@@ -337,7 +339,8 @@ def analyse_brain(run_dir: str | Path, brain: list[str] | None = None, skull: st
     else:
         notes.append("the run did not track the von Mises stress (run.track)")
     if status not in (None, "completed"):
-        notes.append(f"the run's status is {status!r} (summary.json): the peaks cover the run up to t = {report.time:.6g} s")
+        notes.append(f"the run's status is {status!r} (summary.json): the peaks cover the run up to "
+                     f"t = {report.time:.6g} s")
     head_sc = sc.get("head") or {}
     if skull is not None and skull not in (head_sc.get("skull") or []):
         t, a, alpha = _head_from_frames(run_dir, sc, skull)
@@ -356,5 +359,6 @@ def selection(run_dir: str | Path, report: BrainReport) -> dict[str, np.ndarray]
     names = list(_scenario(run_dir)["materials"])
     sel = np.isin(np.asarray(data["material"]).astype(int), [names.index(m) for m in report.brain_materials])
     peak = np.asarray(data["peak_mps"], float)[sel]
-    return {"x0": np.asarray(data["x0"], float)[sel], "peak": log_strain(peak) if report.strain_measure == "log" else peak,
-            "volume": np.asarray(data["volume0"], float)[sel]}  # fmt: skip
+    return {"x0": np.asarray(data["x0"], float)[sel],
+            "peak": log_strain(peak) if report.strain_measure == "log" else peak,
+            "volume": np.asarray(data["volume0"], float)[sel]}

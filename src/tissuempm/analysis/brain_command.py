@@ -3,7 +3,7 @@ figures (registered in :mod:`tissuempm.cli`; docs/brain.md)."""
 
 import json
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 from rich.console import Console
@@ -38,7 +38,8 @@ def _table(report: BrainReport, out: Path | None) -> Table:
                                          f"min {_g(p.min_pressure, ' kPa', 1e-3)} at {_g(p.time_of_min, ' ms', 1e3)}")
     _row(table, f"peak MPS ({report.strain_measure})", f"{report.peak_mps:.4g}; 95th percentile {report.mps_95:.4g}")
     _row(table, "CSDM", ", ".join(f"{k}: {v:.4f}" for k, v in report.csdm.items()))
-    _row(table, "peak von Mises", f"{_g(report.peak_von_mises, ' kPa', 1e-3)} at {_g(report.peak_von_mises_time, ' ms', 1e3)}")
+    _row(table, "peak von Mises",
+         f"{_g(report.peak_von_mises, ' kPa', 1e-3)} at {_g(report.peak_von_mises_time, ' ms', 1e3)}")
     h = report.head or {}
     if "peak_linear_acceleration" in h:
         _row(table, "head linear acceleration", f"{h['peak_linear_acceleration_g']:.4g} g at "
@@ -54,14 +55,15 @@ def _table(report: BrainReport, out: Path | None) -> Table:
 def brain(
     run_dir: Annotated[Path, typer.Argument(help="Run folder written by `tissuempm run --out`.")],
     json_output: Annotated[bool, typer.Option("--json", help="Print the report as JSON on stdout.")] = False,
-    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Folder for brain.json and figures "
+    out: Annotated[Path | None, typer.Option("--out", "-o", help="Folder for brain.json and figures "
                                                 "(default RUN_DIR/brain).")] = None,
-    brain_materials: Annotated[Optional[list[str]], typer.Option("--brain", help="Brain material (repeat for several; "
-                               "default: the scenario's head.brain, else every deformable material the skull does not use).")] = None,
-    skull: Annotated[Optional[str], typer.Option("--skull", help="Skull body for the head's accelerations (default: "
+    brain_materials: Annotated[list[str] | None, typer.Option("--brain", help="Brain material (repeat for several; "
+                               "default: the scenario's head.brain, else every deformable material the skull "
+                               "does not use).")] = None,
+    skull: Annotated[str | None, typer.Option("--skull", help="Skull body for the head's accelerations (default: "
                                                  "the head_* columns of history.csv (head.skull); another body: "
                                                  "from its motion between frames).")] = None,
-    probe: Annotated[Optional[list[str]], typer.Option("--probe", help="Probe name (repeat; default: all).")] = None,
+    probe: Annotated[list[str] | None, typer.Option("--probe", help="Probe name (repeat; default: all).")] = None,
     strain: Annotated[str, typer.Option("--strain", help="green (maximum principal Green-Lagrange strain) "
                                         "or log (logarithmic strain).")] = "green",
     no_figures: Annotated[bool, typer.Option("--no-figures", help="Write brain.json only.")] = False,

@@ -3,7 +3,7 @@
 
 import json
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 from rich.console import Console
@@ -35,7 +35,7 @@ def _opening_row(table: Table, wound: Opening) -> None:
     )
 
 
-REASON_SOURCES = {"summary": "summary.json", "grid": "last-seen motion vs the grid",
+REASON_SOURCES: dict[str | None, str] = {"summary": "summary.json", "grid": "last-seen motion vs the grid",
                   "bodies": "the body (tissue eroded, others left the grid)"}
 """How :attr:`Removed.reasons_from` reads in the table (:mod:`tissuempm.analysis.removed`)."""
 
@@ -84,16 +84,16 @@ def default_out(run_dir: Path, frame: int | None) -> Path:
 
 def wound(
     run_dir: Annotated[Path, typer.Argument(help="Run folder written by `tissuempm run --out`.")],
-    frame: Annotated[Optional[int], typer.Option("--frame", help="Frame to analyse; negative counts from the end "
+    frame: Annotated[int | None, typer.Option("--frame", help="Frame to analyse; negative counts from the end "
                                                  "(default: the last). Output then defaults to "
                                                  "RUN_DIR/wound_frame_N (N: the frame's index).")] = None,
     json_output: Annotated[bool, typer.Option("--json", help="Print the report as JSON on stdout.")] = False,
-    out: Annotated[Optional[str], typer.Option("--out", "-o", help="Folder for wound.json and figures "
+    out: Annotated[str | None, typer.Option("--out", "-o", help="Folder for wound.json and figures "
                                                 "(default RUN_DIR/wound, or RUN_DIR/wound_frame_N "
                                                 "with --frame).")] = None,
-    projectile: Annotated[Optional[str], typer.Option("--projectile", help="Projectile body name "
+    projectile: Annotated[str | None, typer.Option("--projectile", help="Projectile body name "
                                                       "(default: largest initial kinetic energy).")] = None,
-    tissue: Annotated[Optional[list[str]], typer.Option("--tissue", help="Tissue body name (repeat for several; "
+    tissue: Annotated[list[str] | None, typer.Option("--tissue", help="Tissue body name (repeat for several; "
                                                         "default: every other body with a failure model).")] = None,
     no_figures: Annotated[bool, typer.Option("--no-figures", help="Write wound.json only.")] = False,
 ) -> None:

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from tissuempm.materials.base import Material
+from tissuempm.materials.failure import FailureMode
 from tissuempm.mpm import ExplicitSolver, ImplicitSolver
 from tissuempm.scenarios.build import build, implicit_config
 from tissuempm.scenarios.schema import Scenario
@@ -45,8 +46,8 @@ class FailureTrack:
     Attributes
     ----------
     time, displacement, failed, total
-        Per check: time [s], grip displacement [m], particles with any failure (code > 0) and with
-        complete failure (code 3).
+        Per check: time [s], grip displacement [m], particles with any failure (code above
+        ``FailureMode.INTACT``) and with complete failure (``FailureMode.BOTH``).
     first
         Snapshot at the first check with a failed particle (None if none failed).
     snapshots
@@ -146,7 +147,7 @@ def track_failure(
 
     def displacement() -> tuple[float, np.ndarray, np.ndarray]:
         ids = st.id.numpy().astype(np.int64)
-        x = np.asarray(st.x.numpy(), dtype=float)
+        x = np.asarray(st.x.numpy(), dtype=np.float64)
         return abs(grip(ids, x, moving) - grip(ids, x, reference)), ids, x
 
     def history(cols: dict[int, int]) -> np.ndarray:
@@ -167,8 +168,8 @@ def track_failure(
         sel = body_of[ids[order]] == bid[body]
         idx = order[sel]
         gam = history(gcol)
-        F = np.asarray(st.F.numpy(), dtype=float)[idx]
-        a0 = np.asarray(st.fiber.numpy(), dtype=float)[idx]
+        F = np.asarray(st.F.numpy(), dtype=np.float64)[idx]
+        a0 = np.asarray(st.fiber.numpy(), dtype=np.float64)[idx]
         lam = np.linalg.norm(np.einsum("nij,nj->ni", F, a0), axis=1)
         return Snapshot(d, st.time, x0_all[ids[idx]], x[idx], code[idx], gam[idx], lam)
 
@@ -183,11 +184,11 @@ def track_failure(
         next_check = (np.floor(d_now / check_interval) + 1) * check_interval
         code = codes()
         in_body = body_of[ids] == bid[body]
-        failed = int(np.count_nonzero((code > 0) & in_body))
+        failed = int(np.count_nonzero((code > FailureMode.INTACT) & in_body))
         track.time.append(st.time)
         track.displacement.append(d_now)
         track.failed.append(failed)
-        track.total.append(int(np.count_nonzero((code == 3) & in_body)))
+        track.total.append(int(np.count_nonzero((code == FailureMode.BOTH) & in_body)))
         if failed and track.first is None:
             track.first = snapshot(d_now, ids, x, code)
         while pending and d_now >= pending[0]:

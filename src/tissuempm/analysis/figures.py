@@ -23,32 +23,34 @@ from matplotlib.patches import Ellipse, Patch  # noqa: E402
 
 from tissuempm.analysis.frames import Frame  # noqa: E402
 from tissuempm.analysis.raster import section  # noqa: E402
-from tissuempm.analysis.report import FAILURE_LABELS, Opening, WoundReport  # noqa: E402
+from tissuempm.analysis.report import Opening, WoundReport  # noqa: E402
 from tissuempm.analysis.wound import Setup, analyse_wound, face_layer, prepare  # noqa: E402
 from tissuempm.io import atomic_path  # noqa: E402
+from tissuempm.materials.failure import FailureMode  # noqa: E402
 
 FAILURE_COLOURS = ("#2b59c3", "#2ca02c", "#e8c547", "#d62728")
-"""Intact blue, matrix green, fiber yellow, both red (the seed's Fig. 8 colours)."""
+"""Intact blue, matrix green, fiber yellow, both red (the seed's Fig. 8 colours), indexed by
+:class:`~tissuempm.materials.failure.FailureMode`."""
 PROJECTILE_COLOUR = "#7f7f7f"
 OTHER_COLOUR = "#d9d9d9"
 MM = 1e3
 MAX_SECTIONS = 6
 PALETTE = to_rgba_array([*FAILURE_COLOURS, OTHER_COLOUR, PROJECTILE_COLOUR])
-"""RGBA rows: the failure codes 0-3, then other bodies, then the projectile."""
+"""RGBA rows: the failure codes (``FailureMode`` 0-3), then other bodies, then the projectile."""
 
 
 def _colours(setup: Setup, frame: Frame, mask: np.ndarray | slice = slice(None)) -> np.ndarray:
     """RGBA (k, 4) of each particle in ``mask`` (default all): failure state for tissue, grey for the
     projectile and others."""
     body = frame.fields["body"][mask]
-    codes = np.clip(frame.fields["failure"][mask], 0, 3)
+    codes = np.clip(frame.fields["failure"][mask], FailureMode.INTACT, FailureMode.BOTH)
     row = np.where(np.isin(body, setup.roles.tissue), codes, len(FAILURE_COLOURS))
     return PALETTE[np.where(body == setup.roles.projectile, len(FAILURE_COLOURS) + 1, row)]
 
 
 def _handles(projectile: bool = True) -> list[Patch]:
     """Legend entries of the failure colours (and the projectile's)."""
-    handles = [Patch(color=c, label=label) for c, label in zip(FAILURE_COLOURS, FAILURE_LABELS)]
+    handles = [Patch(color=c, label=label) for c, label in zip(FAILURE_COLOURS, FailureMode.labels())]
     if projectile:
         handles.append(Patch(color=PROJECTILE_COLOUR, label="projectile"))
     return handles
@@ -126,7 +128,8 @@ def wound_profile_figure(setup: Setup, report: WoundReport) -> plt.Figure:
     ax = axes[0, 0]
     _section_panel(setup, setup.frame, ax)
     depth = np.array([st.depth for st in report.tract.stations]) * MM
-    for key, style, label in (("cavity_diameter", "k-", "cavity"), ("cavity_failed_diameter", "m--", "cavity + failed")):
+    curves = (("cavity_diameter", "k-", "cavity"), ("cavity_failed_diameter", "m--", "cavity + failed"))
+    for key, style, label in curves:
         half = np.array([getattr(st, key) for st in report.tract.stations]) * MM / 2
         ax.plot(half, depth, style, lw=1.2, label=label)
         ax.plot(-half, depth, style, lw=1.2)
@@ -147,9 +150,11 @@ def face_figure(setup: Setup, wound: Opening) -> plt.Figure:
     _draw(ax, uv, _colours(setup, setup.frame, layer), setup.faces.spacing)
     title = f"{wound.face} wound: no opening"
     if wound.hole:
-        ax.add_patch(Ellipse(tuple(centre), wound.major * MM, wound.minor * MM, angle=wound.orientation_deg,
+        ax.add_patch(Ellipse(tuple(centre), wound.major * MM, wound.minor * MM,
+                             angle=wound.orientation_deg,  # type: ignore[arg-type]  # set for a hole
                              fill=False, color="k", lw=1.5))
-        title = f"{wound.face} wound: D = {wound.diameter * MM:.1f} mm, {wound.major * MM:.1f} x {wound.minor * MM:.1f} mm"
+        title = (f"{wound.face} wound: D = {wound.diameter * MM:.1f} mm, "
+                 f"{wound.major * MM:.1f} x {wound.minor * MM:.1f} mm")
     if wound.fiber_direction is not None:
         arrow = setup.line.project(np.array(wound.fiber_direction)) * 0.5 * max(wound.major * MM, 1.0)
         ax.annotate("", xy=tuple(centre + arrow), xytext=tuple(centre - arrow),
@@ -174,10 +179,10 @@ def tract_figure(report: WoundReport) -> plt.Figure:
         ax.axvline(x, color="0.6", lw=0.8)
     trend = "no cavity"
     if t.slope is not None:
-        fitted = (depth >= t.crater_depth * MM) & (cavity > 0)
+        fitted = (depth >= t.crater_depth * MM) & (cavity > 0)  # type: ignore[operator]  # set with the slope
         intercept = np.mean(cavity[fitted] - t.slope * depth[fitted])  # the least-squares line's
         ax.plot(depth[fitted], intercept + t.slope * depth[fitted], "c-", lw=2, alpha=0.6,
-                label=f"fit below the entry crater (from {t.crater_depth * MM:.2f} mm)")
+                label=f"fit below the entry crater (from {t.crater_depth * MM:.2f} mm)")  # type: ignore[operator]
         trend = f"{t.widening}, {t.slope:+.3f} mm/mm (half-angle {t.half_angle_deg:+.1f} deg)\nbelow the entry crater"
     ax.set_xlabel("depth from entry face [mm]")
     ax.set_ylabel("equivalent diameter [mm]")

@@ -16,6 +16,7 @@ import dataclasses
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import meshio
 import numpy as np
@@ -85,7 +86,8 @@ class Run:
     def __init__(self, path: str | Path):
         self.path = Path(path)
         if not self.path.is_dir():
-            raise AnalysisError(f"run directory {self.path} does not exist (expected the --out folder of `tissuempm run`)")
+            raise AnalysisError(f"run directory {self.path} does not exist "
+                                "(expected the --out folder of `tissuempm run`)")
         pvd = self.path / PVD
         if not pvd.is_file():
             raise AnalysisError(f"{pvd} not found: {self.path} is not a run directory written by `tissuempm run`")
@@ -142,7 +144,10 @@ class Run:
             input_file(path, f"frame {index}")  # a FIFO would block
             mesh = meshio.read(path, file_format="vtu")
         except (Exception, SystemExit) as exc:  # missing, truncated XML, bad base64, not a regular file ...
-            why = "not a readable VTU file (truncated or damaged?)" if isinstance(exc, SystemExit) else exc
+            damaged = not isinstance(exc, (OSError, InputLimitError))
+            why: Any = "not a readable VTU file (truncated or damaged?)" if damaged else exc  # str when damaged
+            if damaged and not isinstance(exc, SystemExit):  # e.g. raw appended data cut short
+                why += f": {type(exc).__name__}: {exc}"
             raise AnalysisError(f"frame {index}: cannot read {path}: {why}") from None  # meshio: sys.exit(1)
         missing = [name for name in REQUIRED_FIELDS if name not in mesh.point_data]
         if missing:
@@ -222,6 +227,7 @@ def _body_names(path: Path) -> list[str]:
         scenario = json.loads(path.read_text())
         return [str(body["name"]) for body in scenario["body"]]
     except FileNotFoundError:
-        raise AnalysisError(f"{path} not found: the run directory needs the scenario written by `tissuempm run`") from None
+        raise AnalysisError(f"{path} not found: the run directory needs the scenario written by "
+                            "`tissuempm run`") from None
     except (ValueError, KeyError, TypeError, RecursionError) as exc:  # RecursionError: nested too deeply
         raise AnalysisError(f"{path}: cannot read the body names ({clean(repr(exc))})") from None

@@ -10,8 +10,6 @@ from dataclasses import dataclass
 from typing import Any
 
 Vector = tuple[float, float, float]
-FAILURE_LABELS = ("intact", "matrix", "fiber", "both")
-"""Names of the failure codes 0, 1, 2, 3."""
 
 
 @dataclass(frozen=True)
@@ -50,7 +48,8 @@ class Station:
     depth: float
     """Axial distance from the entry face."""
     cavity_diameter: float
-    """Equivalent diameter of the cavity of complete disruption (no particle with failure != 3)."""
+    """Equivalent diameter of the cavity of complete disruption (no particle with failure other than
+    ``FailureMode.BOTH``)."""
     cavity_failed_diameter: float
     """Equivalent diameter of the cavity plus the failed layer (no intact particle)."""
 
@@ -109,8 +108,9 @@ class FailureTally:
     all_particles: int
     """In frame 0."""
     counts: dict[str, int]
-    """By state (``intact``, ``matrix``, ``fiber``, ``both``) of the particles in the frame, and
-    ``failed``: any failure (code > 0) or eroded."""
+    """By state (the labels of :class:`~tissuempm.materials.failure.FailureMode`: ``intact``,
+    ``matrix``, ``fiber``, ``both``) of the particles in the frame, and ``failed``: any failure
+    (code > 0) or eroded."""
     fractions: dict[str, float]
     """``counts / tissue_particles``."""
     failed_fraction_all: float

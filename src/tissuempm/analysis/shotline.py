@@ -6,8 +6,9 @@ centroid in the last frame (the initial mass-weighted mean velocity direction wh
 
 Coordinates: the axial coordinate of a point ``x`` is ``s = (x - o) . n``; its in-plane coordinates are
 ``(u, v) = ((x - o) . e1, (x - o) . e2)`` with ``e1`` the global axis most perpendicular to ``n``
-(smallest ``|n . e_k|``, the first one on a tie, components within 1e-6 tied), projected on the plane normal to ``n`` and normalised,
-and ``e2 = n x e1`` (so ``(e1, e2, n)`` is right-handed). For a shot along +y: ``e1 = x``, ``e2 = -z``.
+(smallest ``|n . e_k|``, the first one on a tie, components within 1e-6 tied), projected on the
+plane normal to ``n`` and normalised, and ``e2 = n x e1`` (so ``(e1, e2, n)`` is right-handed). For a
+shot along +y: ``e1 = x``, ``e2 = -z``.
 """
 
 from dataclasses import dataclass
@@ -15,7 +16,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from tissuempm.analysis.errors import AnalysisError
-
 
 TIE = 1e-6
 """Axis components closer than this to the smallest one are a tie for the choice of ``e1``."""

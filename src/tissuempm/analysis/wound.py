@@ -17,6 +17,7 @@ import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, cast
 
 import numpy as np
 
@@ -33,19 +34,18 @@ from tissuempm.analysis.raster import (
 )
 from tissuempm.analysis.removed import ERODED, OUTFLOW, LastSeen, removal_codes, removed_by_body
 from tissuempm.analysis.report import (
-    FAILURE_LABELS,
     FailureTally,
     Opening,
     Projectile,
     Removed,
     Station,
     Tract,
+    Vector,
     WoundReport,
 )
 from tissuempm.analysis.shotline import Faces, ShotLine, shot_line, tissue_faces
+from tissuempm.materials.failure import FailureMode
 
-FAILED_BOTH = 3
-"""Failure code of complete failure (matrix and fiber)."""
 WINDOW_WIDENING = 0.25
 """Rasters are clipped to the tissue's reference in-plane extent widened by this fraction of it per side."""
 
@@ -179,8 +179,8 @@ def failure_tally(setup: Setup) -> FailureTally:
     frame 0: eroded particles count as failed, those that left the grid as neither intact nor failed."""
     codes = setup.frame.fields["failure"][setup.frame.select(setup.tissue)]
     eroded = int(np.sum(setup.tissue & (setup.removal == ERODED)))
-    counts = {name: int(np.sum(codes == k)) for k, name in enumerate(FAILURE_LABELS)}
-    counts["failed"] = int(np.sum(codes > 0)) + eroded
+    counts = {mode.label: int(np.sum(codes == mode)) for mode in FailureMode}
+    counts["failed"] = int(np.sum(codes > FailureMode.INTACT)) + eroded
     n, total = int(setup.tissue.sum()), len(setup.first.points)
     return FailureTally(
         tissue_particles=n,
@@ -229,7 +229,7 @@ def opening(setup: Setup, face: str) -> Opening:
     layer = setup.frame.select(reference)
     uv = setup.line.inplane(setup.frame.points[layer])
     codes = setup.frame.fields["failure"][layer]
-    raster, region = _opening(setup, uv, codes != FAILED_BOTH)
+    raster, region = _opening(setup, uv, codes != FailureMode.BOTH)
     if region is None:
         return Opening(face, False, int(reference.sum()))
     ellipse = fit_ellipse(raster, region)
@@ -237,7 +237,7 @@ def opening(setup: Setup, face: str) -> Opening:
     if "fiber_current" in setup.frame.fields:
         near = (codes == 0) & (np.linalg.norm(uv - ellipse.centre, axis=1) <= ellipse.diameter)
         found = nematic_direction(setup.line.project(setup.frame.field("fiber_current")[layer][near]))
-    fiber = {}
+    fiber: dict[str, Any] = {}
     if found is not None:
         direction, order = found
         cosine = min(1.0, abs(float(direction @ ellipse.direction)))
@@ -274,7 +274,7 @@ def station(setup: Setup, depth: float) -> Station:
     codes = setup.frame.fields["failure"][near]
     return Station(
         depth=float(depth),
-        cavity_diameter=equivalent_diameter(*_opening(setup, uv, codes != FAILED_BOTH)),
+        cavity_diameter=equivalent_diameter(*_opening(setup, uv, codes != FailureMode.BOTH)),
         cavity_failed_diameter=equivalent_diameter(*_opening(setup, uv, codes == 0)),
     )
 
@@ -388,5 +388,5 @@ def analyse_wound(
     )
 
 
-def _vector(a: np.ndarray) -> tuple[float, ...]:
-    return tuple(float(c) for c in a)
+def _vector(a: np.ndarray) -> Vector:
+    return cast(Vector, tuple(float(c) for c in a))  # a 3-vector

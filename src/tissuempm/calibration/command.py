@@ -20,7 +20,6 @@ from rich.table import Table
 from tissuempm.calibration.config import CalibrationConfig, ConfigError, default_name, load_config
 from tissuempm.calibration.data import DataError, read_csv
 from tissuempm.calibration.fit import FitResult, fit, make_form
-from tissuempm.calibration.optimizers import SearchSettings
 from tissuempm.safety import markup, message
 
 
@@ -44,7 +43,7 @@ def run_config(cfg: CalibrationConfig, base: Path, progress=None) -> FitResult:
     m = cfg.model
     form = make_form(
         m.form, curves, terms=m.terms, prony_terms=m.prony_terms, K=m.bulk_modulus, density=m.density,
-        volumetric=m.volumetric, nu=m.poisson_ratio, bounds={k: tuple(v) for k, v in m.bounds.items()},
+        volumetric=m.volumetric, nu=m.poisson_ratio, bounds=dict(m.bounds),
         fit_bulk_modulus=m.fit_bulk_modulus,
     )
     o = cfg.optimizer
@@ -56,12 +55,7 @@ def run_config(cfg: CalibrationConfig, base: Path, progress=None) -> FitResult:
             raise ConfigError(f"model.start must give exactly {', '.join(form.names)} "
                               f"(missing: {missing}, unknown: {unknown})")
         start = tuple(m.start[n] for n in form.names)
-    settings = SearchSettings(
-        method=o.method, seed=o.seed, local_solver=o.local_solver, trial_points=o.trial_points,
-        stage1_points=o.stage1_points, max_local_runs=o.max_local_runs, min_local_runs=o.min_local_runs,
-        local_maxiter=o.local_maxiter,
-        popsize=o.popsize, maxiter=o.maxiter, polish=o.polish, start=start,
-    )
+    settings = o.config(start=start)  # the SearchSettings of [optimizer] (tissuempm.options)
     result = fit(form, curves, settings, stability_range=m.stability_range, stability_modes=m.stability_modes,
                  max_increment=m.max_increment, forward=m.forward, progress=progress)
     a = cfg.analysis
@@ -100,7 +94,7 @@ def run_config(cfg: CalibrationConfig, base: Path, progress=None) -> FitResult:
                 return result  # the main fit is this form on the same data
             f2 = make_form(name, data, terms=terms, prony_terms=m.prony_terms, K=m.bulk_modulus, density=m.density,
                            volumetric=m.volumetric, nu=m.poisson_ratio, fit_bulk_modulus=m.fit_bulk_modulus,
-                           bounds={k: tuple(v) for k, v in m.bounds.items()} if (name, terms) == main else None)
+                           bounds=dict(m.bounds) if (name, terms) == main else None)
             return fit(f2, data, replace(settings, start=None), stability_range=m.stability_range,
                        stability_modes=m.stability_modes, max_increment=m.max_increment, forward=m.forward)
 
@@ -223,17 +217,17 @@ def calibrate(
         err.print(f"[red]error:[/red] {message(e)}", highlight=False)
         raise typer.Exit(2) from None
     base = config.resolve().parent
-    out = Path(out) if out is not None else base / f"{config.stem}_calibration"
+    out_dir = Path(out) if out is not None else base / f"{config.stem}_calibration"
     name = cfg.output.name or default_name(config)
     try:
-        check_output(out, name)
+        check_output(out_dir, name)
     except ConfigError as e:
         err.print(f"[red]error:[/red] {message(e)}", highlight=False)
         raise typer.Exit(2) from None
     total = cfg.optimizer.max_local_runs or None if cfg.optimizer.method == "globalsearch" else (
         cfg.optimizer.maxiter + cfg.optimizer.polish)
-    with Progress(TextColumn("[progress.description]{task.description}"), BarColumn(), TextColumn("{task.fields[best]}"),
-                  TimeElapsedColumn(), console=err, transient=json_output) as bar:
+    with Progress(TextColumn("[progress.description]{task.description}"), BarColumn(),
+                  TextColumn("{task.fields[best]}"), TimeElapsedColumn(), console=err, transient=json_output) as bar:
         task = bar.add_task("calibrating", total=total, best="")
 
         def progress(done: int, n: int, best: float) -> None:
@@ -245,15 +239,13 @@ def calibrate(
             err.print(f"[red]error:[/red] {message(e)}", highlight=False)
             raise typer.Exit(2) from None
     from tissuempm.calibration.results import to_json, write_results
-
     from tissuempm.io.staging import staged
 
     try:  # every file or none (a full disk leaves no result.json, card or loadable library entry)
-        files = staged(out, lambda folder: write_results(
-            result, folder, name, title=cfg.output.title, source=f"tissuempm calibrate {config.name}",
-            plots=cfg.output.plots, plot_rates_list=cfg.output.plot_rates or None, lsdyna_units=cfg.output.lsdyna_units))
+        files = staged(out_dir, lambda folder: write_results(
+            result, folder, name, options=cfg.output.config(), source=f"tissuempm calibrate {config.name}"))
     except OSError as e:
-        err.print(f"[red]error:[/red] writing the results to {escape(str(out))} failed: {escape(str(e))}; "
+        err.print(f"[red]error:[/red] writing the results to {escape(str(out_dir))} failed: {escape(str(e))}; "
                   "nothing was written", highlight=False)
         raise typer.Exit(2) from None
     warnings = result.warnings()
@@ -283,4 +275,4 @@ def calibrate(
               + ("" if not result.statistics.get("widening") else
                  f"; default bounds widened {len(result.statistics['widening'])} time(s)")
               + ("" if not warnings else f"; {len(warnings)} warning(s) on stderr"), highlight=False)
-    con.print(f"results in {out} ({', '.join(sorted(files))})")
+    con.print(f"results in {out_dir} ({', '.join(sorted(files))})")

@@ -3,7 +3,7 @@
 Minimal example (Brewick et al. 2017 style hyper-viscoelastic fit)::
 
     [model]
-    form = "ogden"          # neo_hookean, mooney_rivlin, yeoh, reduced_polynomial, polynomial, ogden, hgo, linear_elastic
+    form = "ogden"          # or neo_hookean, mooney_rivlin, yeoh, reduced_polynomial, polynomial, hgo, gent, ...
     terms = 2
     prony_terms = 2         # 0 for a purely hyperelastic fit
 
@@ -28,16 +28,18 @@ Relative data paths are resolved from the config file's folder.
 from __future__ import annotations
 
 import re
-import tomllib
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
+from tissuempm import options
 from tissuempm.calibration.constraints import STABILITY_MODES
 from tissuempm.calibration.data import MODE_ALIASES
 from tissuempm.calibration.forms import FORMS
 from tissuempm.calibration.forward import FORWARDS
+from tissuempm.calibration.optimizers import SearchSettings
+from tissuempm.calibration.results import OutputOptions
 from tissuempm.library.userfile import NAME_PATTERN
 
 
@@ -78,7 +80,7 @@ class ModelConfig(_Strict):
         return v
 
     @model_validator(mode="after")
-    def _bulk_needs_driver(self) -> "ModelConfig":
+    def _bulk_needs_driver(self) -> ModelConfig:
         if self.fit_bulk_modulus and self.forward != "driver":
             raise ValueError("fit_bulk_modulus = true needs forward = 'driver' (the incompressible closed forms "
                              "do not depend on K)")
@@ -106,21 +108,17 @@ class DataConfig(_Strict):
         return v
 
 
-class OptimizerConfig(_Strict):
-    """``[optimizer]``: the global search (see :class:`tissuempm.calibration.optimizers.SearchSettings`)."""
+OPTIMIZER_KEYS = ("method", "seed", "local_solver", "trial_points", "stage1_points", "max_local_runs",
+                  "min_local_runs", "local_maxiter", "popsize", "maxiter", "polish")
+"""The settings of :class:`~tissuempm.calibration.optimizers.SearchSettings` an ``[optimizer]`` table
+holds (their types, ranges and defaults are SearchSettings'; ``start`` is ``model.start``)."""
 
-    method: Literal["globalsearch", "differential_evolution"] = "globalsearch"
-    seed: int = Field(0, ge=0, le=2**32 - 1, description="seed of the random generator (NumPy: 0..2^32-1)")
-    local_solver: Literal["slsqp", "trust-constr"] = "slsqp"
-    trial_points: int | None = Field(None, ge=10, description="default 50 n (n free parameters)")
-    stage1_points: int | None = Field(None, ge=2, description="default trial_points / 5")
-    max_local_runs: int | None = Field(None, ge=1, description="default 4 n")
-    min_local_runs: int | None = Field(None, ge=1, description="local runs added from the best unused trial points "
-                                                               "up to this number; default ceil(2.5 n)")
-    local_maxiter: int = Field(400, ge=1)
-    popsize: int = Field(15, ge=4)
-    maxiter: int = Field(200, ge=1)
-    polish: int = Field(5, ge=1)
+
+class OptimizerConfig(options.section(SearchSettings, _Strict, "OptimizerOptions", include=OPTIMIZER_KEYS)):  # type: ignore[misc]
+    """``[optimizer]``: the global search, the settings :data:`OPTIMIZER_KEYS` of
+    :class:`tissuempm.calibration.optimizers.SearchSettings` (``trial_points`` default 50 n,
+    ``stage1_points`` trial_points / 5, ``max_local_runs`` 4 n, ``min_local_runs`` ceil(2.5 n) for
+    n free parameters; ``seed`` 0..2^32-1, NumPy's range)."""
 
 
 class AnalysisConfig(_Strict):
@@ -153,23 +151,19 @@ class AnalysisConfig(_Strict):
         return [v] if isinstance(v, str) else v
 
     @model_validator(mode="after")
-    def _holdout_needs_forms(self) -> "AnalysisConfig":
+    def _holdout_needs_forms(self) -> AnalysisConfig:
         if self.holdout and not self.forms:
             raise ValueError(f"holdout = {self.holdout} needs forms = [...] (the held-out data are predicted by "
                              "the model-selection fits)")
         return self
 
 
-class OutputConfig(_Strict):
-    """``[output]``: names and files."""
+class OutputConfig(options.section(OutputOptions, _Strict, "OutputOptions")):  # type: ignore[misc]
+    """``[output]``: names and files: ``name`` and the options of
+    :class:`tissuempm.calibration.results.OutputOptions` (title, plots, plot_rates, lsdyna_units)."""
 
     name: str | None = Field(None, description="library name of the fitted material, snake_case (default: the "
                                                 "config file stem in lowercase, other characters replaced by _)")
-    title: str | None = None
-    plots: bool = True
-    plot_rates: list[Annotated[float, Field(gt=0)]] = Field(default_factory=list,
-                                                            description="rates [1/s] (> 0) of the -30..+30 % plot")
-    lsdyna_units: Literal["SI", "mm-ms-kg", "mm-s-tonne"] = "SI"
 
     @field_validator("name")
     @classmethod
@@ -195,47 +189,9 @@ def default_name(config: Path) -> str:
     return name if NAME_PATTERN.match(name) else f"m_{name}"
 
 
-def _format(err: ValidationError, path: Path) -> str:
-    return f"{path}: invalid calibration config:\n  " + "\n  ".join(validation_messages(err))
-
-
-def validation_messages(err: ValidationError) -> list[str]:
-    """One line per problem of a pydantic ``err``, named by its key path: unknown and missing keys, or
-    the message and the value given (calibration configs, digitize settings)."""
-    msgs = []
-    for e in err.errors():
-        loc = ".".join(str(x) for x in e["loc"])
-        if e["type"] == "extra_forbidden":
-            msgs.append(f"unknown key {loc!r}")
-        elif e["type"] == "missing":
-            msgs.append(f"missing key {loc!r}")
-        else:
-            msgs.append(f"{loc}: {e['msg']} (got {e.get('input')!r})")
-    return msgs
-
-
 def load_config(path: str | Path) -> CalibrationConfig:
-    """Read and validate a config file (raises :class:`ConfigError` with every problem listed)."""
-    from tissuempm.safety import InputLimitError, input_file, parse_toml
+    """Read and validate a config file (raises :class:`ConfigError` with every problem listed,
+    :func:`tissuempm.config_files.load`)."""
+    from tissuempm.config_files import load
 
-    path = Path(path)
-    try:
-        input_file(path, "config file")  # a FIFO would block
-    except InputLimitError as err:
-        raise ConfigError(str(err)) from None
-    if not path.is_file():
-        raise ConfigError(f"config file {str(path)!r} " + ("is a folder" if path.is_dir() else "does not exist"))
-    try:
-        raw = parse_toml(path.read_text(encoding="utf-8"), str(path))
-    except InputLimitError as err:
-        raise ConfigError(str(err)) from None
-    except UnicodeDecodeError as err:
-        raise ConfigError(f"{path}: not a text (UTF-8) TOML file: undecodable byte at position {err.start}") from None
-    except OSError as err:
-        raise ConfigError(f"{path}: cannot be read: {err.strerror or err}") from None
-    except tomllib.TOMLDecodeError as err:
-        raise ConfigError(f"{path}: not valid TOML: {err}") from None
-    try:
-        return CalibrationConfig.model_validate(raw)
-    except ValidationError as err:
-        raise ConfigError(_format(err, path)) from None
+    return load(path, CalibrationConfig, "calibration config", ConfigError)

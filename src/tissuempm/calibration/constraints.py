@@ -28,7 +28,7 @@ import numpy as np
 
 from tissuempm.calibration.forms import ModelForm
 from tissuempm.calibration.forward import elastic_stress
-from tissuempm.materials.base import ParameterError
+from tissuempm.materials.base import ParameterError, get_material_class
 
 STABILITY_MODES: tuple[str, ...] = ("uniaxial", "equibiaxial", "pure_shear", "simple_shear")
 """Modes checked for Drucker stability (simple shear only where there are simple-shear data)."""
@@ -72,7 +72,8 @@ class Constraints:
             if not (0 < a < b):
                 raise ValueError(f"stability range [{a}, {b}] must satisfy 0 < lower < upper")
             self.ranges.append((a, b))
-        self.hyperelastic = self.form.form != "linear_elastic"
+        # finite-strain cores (an incompressible closed form) are checked for Drucker stability; a linear core is not
+        self.hyperelastic = hasattr(get_material_class(self.form.form), "nominal_stress_incompressible")
         # (mode, strain grid lower end, upper end): stretch modes in strain = lam - 1, simple shear in gamma
         self.grids = [(m, lo - 1.0, hi - 1.0) for lo, hi in self.ranges for m in self.modes if m != "simple_shear"]
         if self.shear_range is not None and "simple_shear" in self.modes:
@@ -118,7 +119,8 @@ class Constraints:
         for mode, lo, hi in self.grids:
             e = np.linspace(lo, hi, n_grid)
             P = elastic_stress(el, mode, e)
-            out.append(np.diff(P) / np.diff(e) / self.form.scale)
+            with np.errstate(invalid="ignore"):  # inf - inf past a law's limit (Gent's Jm): unstable below
+                out.append(np.diff(P) / np.diff(e) / self.form.scale)
         s = np.concatenate(out)
         return np.where(np.isfinite(s), s, -1.0)
 

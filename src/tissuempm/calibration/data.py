@@ -286,9 +286,9 @@ def read_csv(
         if not s:
             continue
         if s.startswith("#"):
-            m = re.match(r"#\s*([A-Za-z_]+)\s*[=:]\s*(\S+)\s*$", s)
-            if m:
-                meta[m.group(1).lower()] = m.group(2)
+            found = re.match(r"#\s*([A-Za-z_]+)\s*[=:]\s*(\S+)\s*$", s)
+            if found:
+                meta[found.group(1).lower()] = found.group(2)
             continue
         body.append(line)
     if not body:

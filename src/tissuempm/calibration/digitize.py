@@ -51,13 +51,17 @@ Example
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal, Sequence
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
 from tissuempm.calibration.data import MODE_ALIASES, STRESS_UNITS, Curve, DataError, write_csv
+
+if TYPE_CHECKING:
+    from pydantic import BaseModel
 
 SCALES = ("linear", "log")
 X_QUANTITIES: dict[str, str] = {
@@ -236,7 +240,7 @@ def parse_color(text: str) -> tuple[int, int, int]:
         except ValueError:
             rgb = ()
         if len(rgb) == 3 and all(0 <= c <= 255 for c in rgb):
-            return rgb  # type: ignore[return-value]
+            return rgb
         raise DigitizeError(f"color {text!r}: R,G,B must be three numbers in 0..255")
     if len(s) == 6 and all(c in "0123456789abcdefABCDEF" for c in s):
         s = "#" + s
@@ -250,9 +254,9 @@ def parse_color(text: str) -> tuple[int, int, int]:
 # ---------------------------------------------------------------------- image
 def read_image(path: str | Path) -> np.ndarray:
     """RGB image as floats in [0, 1], shape (rows, cols, 3); transparent pixels composited on white."""
-    from PIL import Image, UnidentifiedImageError
-
     import stat
+
+    from PIL import Image, UnidentifiedImageError
 
     path = Path(path)
     if path.exists() and not path.is_dir() and not stat.S_ISREG(path.stat().st_mode):
@@ -260,7 +264,8 @@ def read_image(path: str | Path) -> np.ndarray:
     if not path.is_file():
         raise DigitizeError(f"image {str(path)!r} does not exist" + (" (it is a folder)" if path.is_dir() else ""))
     try:
-        with Image.open(path) as im:
+        with Image.open(path) as opened:
+            im: Image.Image = opened
             if im.size[0] * im.size[1] > MAX_PIXELS:
                 raise DigitizeError(f"{path}: {im.size[0]} x {im.size[1]} pixels, more than the {MAX_PIXELS:,} an "
                                     "image to digitize may have (crop or scale it down)")
@@ -667,7 +672,8 @@ def summary(curves: Sequence[DigitizedCurve], x_axis: Axis, y_axis: Axis, files:
         "y_axis": {"pixels": list(y_axis.pixels), "values": list(y_axis.values), "scale": y_axis.scale},
         "curves": [
             {"name": d.spec.name, "kind": d.spec.kind, "color": hex_color(d.spec.color), "tolerance": d.spec.tolerance,
-             "coverage": d.spec.coverage, "split": d.spec.split, "mode": d.spec.mode, "strain_rate": d.spec.strain_rate, "points": int(d.x.size), "pixels": d.pixels,
+             "coverage": d.spec.coverage, "split": d.spec.split, "mode": d.spec.mode,
+             "strain_rate": d.spec.strain_rate, "points": int(d.x.size), "pixels": d.pixels,
              "x": d.x.tolist(), "y": d.y.tolist(), "file": str(files[d.spec.name]) if d.spec.name in files else None}
             for d in curves
         ],
@@ -677,7 +683,7 @@ def summary(curves: Sequence[DigitizedCurve], x_axis: Axis, y_axis: Axis, files:
 
 
 # ---------------------------------------------------------------------- settings (TOML file or command line)
-def _settings_models():
+def _settings_models() -> type[BaseModel]:
     """Pydantic models of a digitize settings file (built on first use: pydantic is only needed here)."""
     from pydantic import BaseModel, ConfigDict, Field
 
@@ -690,6 +696,8 @@ def _settings_models():
         scale: Literal["linear", "log"] = "linear"
 
     class XSettings(AxisSettings):
+        # Literal[...] of the module's tuples: pydantic reads the values at run time, mypy takes no computed
+        # Literal (the three valid-type ignores below)
         quantity: Literal[tuple(X_QUANTITIES)] = "strain"  # type: ignore[valid-type]
 
     class YSettings(AxisSettings):
@@ -722,33 +730,21 @@ def _settings_models():
 
 def validate_settings(raw: dict, origin: str = "settings"):
     """Validate a settings mapping (the TOML layout of docs/calibration.md); :class:`DigitizeError` lists
-    every problem by key."""
-    from pydantic import ValidationError
+    every problem by key (:func:`tissuempm.config_files.validate`)."""
+    from tissuempm.config_files import validate
 
     try:
-        return _settings_models().model_validate(raw)
-    except ValidationError as err:
-        from tissuempm.calibration.config import validation_messages
-
-        msgs = validation_messages(err)
-        raise DigitizeError(f"{origin}: invalid digitize settings:\n  " + "\n  ".join(msgs)) from None
+        return validate(_settings_models(), raw, "digitize settings", DigitizeError)
+    except DigitizeError as err:
+        raise DigitizeError(f"{origin}: {err}") from None
 
 
 def load_settings(path: str | Path) -> dict:
-    """Read a digitize TOML file into a plain mapping (validated later, after command-line overrides)."""
-    import tomllib
+    """Read a digitize TOML file into a plain mapping (validated later, after command-line overrides;
+    :func:`tissuempm.safety.read_toml_file`)."""
+    from tissuempm.safety import read_toml_file
 
-    path = Path(path)
-    if not path.is_file():
-        raise DigitizeError(f"settings file {str(path)!r} " + ("is a folder" if path.is_dir() else "does not exist"))
-    try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
-    except RecursionError:
-        raise DigitizeError(f"{path}: tables or arrays nested too deeply") from None
-    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
-        raise DigitizeError(f"{path}: not a valid TOML file: {err}") from None
-    except OSError as err:
-        raise DigitizeError(f"{path}: cannot be read: {err.strerror or err}") from None
+    return read_toml_file(Path(path), "digitize settings", DigitizeError)
 
 
 @dataclass(frozen=True)
@@ -800,6 +796,7 @@ def plan(settings, rgb: np.ndarray, default_name: str = "curve") -> Plan:
         color = parse_color(c.color) if isinstance(c.color, str) else tuple(c.color)
         specs.append(CurveSpec(color, name, c.kind, c.tolerance, c.window, c.min_area, c.max_area, c.opening,
                                c.mode, c.strain_rate, c.coverage, c.split))
-    box = frame.interior if settings.box == "auto" else (None if settings.box is None else tuple(settings.box))
+    box = (frame.interior if settings.box == "auto"  # type: ignore[union-attr]  # found: need_frame
+           else (None if settings.box is None else tuple(settings.box)))
     return Plan(tuple(specs), x_axis, y_axis, box, tuple(tuple(e) for e in settings.exclude),
                 settings.x.quantity, settings.y.unit, frame)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 from rich.console import Console
@@ -44,7 +44,8 @@ def _per_curve(values: list[str], n: int, option: str) -> list[str | None]:
     if not values:
         return [None] * n
     if len(values) == 1:
-        return values * n
+        one: list[str | None] = list(values)
+        return one * n
     if len(values) != n:
         raise dg.DigitizeError(f"{option} is given {len(values)} times for {n} colours: give it once (for all "
                                "curves) or once per --color, in the same order")
@@ -97,9 +98,9 @@ def build_settings(image: Path | None, config: Path | None, **cli) -> tuple[dict
         if names is None:
             raise dg.DigitizeError(f"--name is given once for {n} colours: give one name per --color")
         curves = []
-        for k, (col, name, kind, mode, rate) in enumerate(zip(
+        for col, name, kind, mode, rate in zip(
                 colors, names, _per_curve(cli["kind"], n, "--kind"), _per_curve(cli["mode"], n, "--mode"),
-                _per_curve(cli["rate"], n, "--rate"))):
+                _per_curve(cli["rate"], n, "--rate")):
             c: dict = {"color": col}
             for key, value in (("name", name), ("kind", kind), ("mode", mode)):
                 if value is not None:
@@ -118,20 +119,20 @@ def build_settings(image: Path | None, config: Path | None, **cli) -> tuple[dict
 
 
 def digitize(
-    image: Annotated[Optional[Path], typer.Argument(help="figure to digitize (PNG or JPEG)")] = None,
-    config: Annotated[Optional[Path], typer.Option("--config", help="settings file (TOML); options override it")]
+    image: Annotated[Path | None, typer.Argument(help="figure to digitize (PNG or JPEG)")] = None,
+    config: Annotated[Path | None, typer.Option("--config", help="settings file (TOML); options override it")]
     = None,
     x: Annotated[list[str], typer.Option("--x", help="x calibration point PIXEL_COLUMN,VALUE (give it twice)")] = [],
     y: Annotated[list[str], typer.Option("--y", help="y calibration point PIXEL_ROW,VALUE (give it twice)")] = [],
-    x_limits: Annotated[Optional[str], typer.Option(
+    x_limits: Annotated[str | None, typer.Option(
         "--x-limits", help="LOW,HIGH: x values at the left/right edges of the automatically found frame")] = None,
-    y_limits: Annotated[Optional[str], typer.Option(
+    y_limits: Annotated[str | None, typer.Option(
         "--y-limits", help="LOW,HIGH: y values at the bottom/top edges of the automatically found frame")] = None,
-    x_scale: Annotated[Optional[str], typer.Option("--x-scale", help="linear | log")] = None,
-    y_scale: Annotated[Optional[str], typer.Option("--y-scale", help="linear | log")] = None,
-    x_quantity: Annotated[Optional[str], typer.Option(
+    x_scale: Annotated[str | None, typer.Option("--x-scale", help="linear | log")] = None,
+    y_scale: Annotated[str | None, typer.Option("--y-scale", help="linear | log")] = None,
+    x_quantity: Annotated[str | None, typer.Option(
         "--x-quantity", help="what x shows: strain | strain_percent | stretch | shear_strain")] = None,
-    y_unit: Annotated[Optional[str], typer.Option("--y-unit", help="stress unit of the y axis: Pa|kPa|MPa|GPa")]
+    y_unit: Annotated[str | None, typer.Option("--y-unit", help="stress unit of the y axis: Pa|kPa|MPa|GPa")]
     = None,
     color: Annotated[list[str], typer.Option(
         "--color", help="curve colour #RRGGBB, R,G,B or a matplotlib name (C0, tab:red); once per curve")] = [],
@@ -139,24 +140,24 @@ def digitize(
     kind: Annotated[list[str], typer.Option("--kind", help="line | markers (once for all, or per --color)")] = [],
     mode: Annotated[list[str], typer.Option("--mode", help="loading mode written to the CSV (per --color)")] = [],
     rate: Annotated[list[str], typer.Option("--rate", help="strain rate in 1/s or 'none' (per --color)")] = [],
-    tolerance: Annotated[Optional[float], typer.Option(help="CIELAB Delta E of curve pixels (default 20)")] = None,
-    window: Annotated[Optional[int], typer.Option(help="line averaging window along x (pixels) (default 3)")]
+    tolerance: Annotated[float | None, typer.Option(help="CIELAB Delta E of curve pixels (default 20)")] = None,
+    window: Annotated[int | None, typer.Option(help="line averaging window along x (pixels) (default 3)")]
     = None,
-    min_area: Annotated[Optional[int], typer.Option("--min-area", help="smallest marker (pixels) (default 4)")]
+    min_area: Annotated[int | None, typer.Option("--min-area", help="smallest marker (pixels) (default 4)")]
     = None,
-    max_area: Annotated[Optional[int], typer.Option("--max-area", help="largest marker (pixels)")] = None,
-    opening: Annotated[Optional[int], typer.Option(help="markers: opening radius (pixels) removing thin lines")]
+    max_area: Annotated[int | None, typer.Option("--max-area", help="largest marker (pixels)")] = None,
+    opening: Annotated[int | None, typer.Option(help="markers: opening radius (pixels) removing thin lines")]
     = None,
-    coverage: Annotated[Optional[float], typer.Option(
+    coverage: Annotated[float | None, typer.Option(
         help="mixture mode for blurred/scanned lines: least fraction (0..1] of the colour over the background")]
     = None,
-    split: Annotated[Optional[bool], typer.Option(
+    split: Annotated[bool | None, typer.Option(
         "--split/--no-split", help="markers: split touching markers (watershed of the distance transform)")] = None,
-    box: Annotated[Optional[str], typer.Option(help="search region COL0,ROW0,COL1,ROW1, or 'auto' (the frame)")]
+    box: Annotated[str | None, typer.Option(help="search region COL0,ROW0,COL1,ROW1, or 'auto' (the frame)")]
     = None,
     exclude: Annotated[list[str], typer.Option("--exclude", help="region COL0,ROW0,COL1,ROW1 to ignore "
                                                                  "(e.g. the legend); repeatable")] = [],
-    out: Annotated[Optional[Path], typer.Option("--out", help="output folder (default: <image stem>_digitized)")]
+    out: Annotated[Path | None, typer.Option("--out", help="output folder (default: <image stem>_digitized)")]
     = None,
     json_output: Annotated[bool, typer.Option("--json", help="print the result as JSON")] = False,
 ) -> None:

@@ -3,29 +3,31 @@
 Example
 -------
 >>> from tissuempm.calibration import fit, make_form, SearchSettings   # doctest: +SKIP
->>> form = make_form("ogden", curves, terms=2, prony_terms=2)
->>> result = fit(form, curves, SearchSettings(seed=1))
->>> result.material            # Viscoelastic(elastic=Ogden(...), g=..., tau=...)
->>> result.cost, result.costs  # total O (eq. 54) and O_m per data set (eq. 52)
+>>> form = make_form("ogden", curves, terms=2, prony_terms=2)  # doctest: +SKIP
+>>> result = fit(form, curves, SearchSettings(seed=1))         # doctest: +SKIP
+>>> result.material                                             # doctest: +SKIP
+Viscoelastic(elastic=Ogden(...), g=..., tau=...)
+>>> result.cost, result.costs  # total O (eq. 54), O_m per data set (eq. 52)  # doctest: +SKIP
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
+from tissuempm.calibration import diagnostics
 from tissuempm.calibration.constraints import STABILITY_MODES, Constraints
 from tissuempm.calibration.cost import CostFunction
 from tissuempm.calibration.data import Curve
-from tissuempm.calibration import diagnostics
-from tissuempm.calibration.forms import ModelForm, modulus_scale, time_range
+from tissuempm.calibration.forms import FORMS, ModelForm, modulus_scale, time_range
 from tissuempm.calibration.forward import DEFAULT_MAX_INCREMENT, shear_stretches
 from tissuempm.calibration.optimizers import LocalMinimum, Problem, SearchResult, SearchSettings, search
 from tissuempm.calibration.polish import Optimality
-from tissuempm.materials.base import Material
+from tissuempm.materials.base import Material, get_material_class
 
 
 def make_form(
@@ -50,11 +52,9 @@ def make_form(
     ``fit_bulk_modulus`` makes K a fitted parameter (``K`` is then only the start value); it
     needs the compressible ``forward = "driver"`` model, since the closed forms do not depend on K.
     """
+    names = {f.name for f in dataclasses.fields(get_material_class(form))} if form in FORMS else {"K", "volumetric"}
     fx: dict[str, Any] = {"density": density}
-    if form == "linear_elastic":
-        fx["nu"] = nu
-    else:
-        fx.update({"K": K, "volumetric": volumetric})
+    fx.update({k: v for k, v in {"nu": nu, "K": K, "volumetric": volumetric}.items() if k in names})
     fx.update(fixed or {})
     fitted = [c for c in curves if c.weight > 0] or list(curves)  # weight 0: shown, not fitted
     return ModelForm(
@@ -159,19 +159,19 @@ def stretch_range(curves: Sequence[Curve]) -> tuple[float, float]:
     Stretch modes contribute lam = 1 + strain; simple shear the in-plane principal stretches
     lam_1,2 = sqrt(1 + gamma^2/4) +- gamma/2 it reaches (:func:`~tissuempm.calibration.forward.shear_stretches`).
     """
-    lam = [np.ones(1)]
+    parts = [np.ones(1)]
     for c in curves:
-        lam += list(shear_stretches(c.strain)) if c.mode == "simple_shear" else [c.stretch]
-    lam = np.concatenate(lam)
+        parts += list(shear_stretches(c.strain)) if c.mode == "simple_shear" else [c.stretch]
+    lam = np.concatenate(parts)
     return float(lam.min()), float(lam.max())
 
 
 def shear_range(curves: Sequence[Curve]) -> tuple[float, float] | None:
     """(lowest, highest) shear strain gamma of the simple-shear data sets, 0 included; None without any."""
-    g = [c.strain for c in curves if c.mode == "simple_shear"]
-    if not g:
+    strains = [c.strain for c in curves if c.mode == "simple_shear"]
+    if not strains:
         return None
-    g = np.concatenate(g + [np.zeros(1)])
+    g = np.concatenate(strains + [np.zeros(1)])
     return float(g.min()), float(g.max())
 
 
@@ -221,8 +221,8 @@ def fit(
     ``statistics["widening"]``. User bounds are never widened.
     """
     settings = settings or SearchSettings()
-    kw = dict(stability_range=stability_range, stability_modes=stability_modes, max_increment=max_increment,
-              forward=forward)
+    kw: dict[str, Any] = dict(stability_range=stability_range, stability_modes=stability_modes,
+                              max_increment=max_increment, forward=forward)
     result = _fit_once(form, curves, settings, progress=progress, **kw)
     steps: list[dict[str, Any]] = []
     while widen_bounds and len(steps) < diagnostics.MAX_WIDENINGS:

@@ -15,33 +15,38 @@ The optimizers work in the unit box: each parameter is mapped from ``x`` in [0, 
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from tissuempm.materials.base import Material, ParameterError, from_dict
+import tissuempm.materials  # noqa: F401  (registers every law, so FORMS lists them all)
+from tissuempm.materials.base import (
+    MATERIALS,
+    Fit,
+    Material,
+    ParameterError,
+    from_dict,
+    get_material_class,
+    is_sequence_field,
+)
 from tissuempm.materials.viscoelastic import MAX_TERMS as VISCO_MAX_TERMS
 
-FORMS: tuple[str, ...] = (
-    "neo_hookean",
-    "mooney_rivlin",
-    "yeoh",
-    "reduced_polynomial",
-    "polynomial",
-    "ogden",
-    "hgo",
-    "linear_elastic",
-)
-"""Elastic cores a calibration can fit (``linear_elastic``: the linear viscoelastic model, eq. 11)."""
-DEFAULT_TERMS: dict[str, int] = {
-    "neo_hookean": 1, "mooney_rivlin": 1, "yeoh": 3, "reduced_polynomial": 2,
-    "polynomial": 2, "ogden": 2, "hgo": 1, "linear_elastic": 1,
-}
-MAX_TERMS: dict[str, int] = {
-    "neo_hookean": 1, "mooney_rivlin": 1, "yeoh": 3, "reduced_polynomial": 6,
-    "polynomial": 2, "ogden": 6, "hgo": 1, "linear_elastic": 1,
-}
+
+def _form_classes() -> list[type[Material]]:
+    """Registered laws that are calibration forms (they declare ``fit_terms``), in listing order."""
+    return sorted((c for c in MATERIALS.values() if c.__dict__.get("fit_terms")), key=lambda c: c.fit_rank)
+
+
+FORMS: tuple[str, ...] = tuple(c.kind for c in _form_classes())
+"""Elastic cores a calibration can fit: every law that declares :attr:`Material.fit_terms` and :class:`Fit`
+field metadata (``linear_elastic``: the linear viscoelastic model, eq. 11)."""
+DEFAULT_TERMS: dict[str, int] = {c.kind: c.fit_terms[0] for c in _form_classes()}  # type: ignore[index]  # forms set it
+MAX_TERMS: dict[str, int] = {c.kind: c.fit_terms[1] for c in _form_classes()}  # type: ignore[index]
+SHARED_FIXED: frozenset[str] = frozenset({"K", "nu", "volumetric", "density"})
+"""Fixed settings a calibration may give for any form; a form whose law lacks one ignores it (a linear
+core has no ``K``, a hyperelastic one no ``nu``)."""
 
 
 @dataclass(frozen=True)
@@ -84,36 +89,35 @@ class Param:
 
 
 def _elastic_params(form: str, terms: int, S: float) -> list[Param]:
-    """Parameters of the elastic core with default bounds from the modulus scale ``S`` [Pa]."""
-    big = 50.0 * S
-    if form == "neo_hookean":
-        return [Param("C10", "Pa", 1e-6 * S, big, modulus=True)]
-    if form == "mooney_rivlin":
-        return [Param("C10", "Pa", -big, big, modulus=True), Param("C01", "Pa", -big, big, modulus=True)]
-    if form == "yeoh":
-        names = ("C10", "C20", "C30")[:terms]  # the Yeoh material requires C10 > 0 (initial shear modulus 2 C10)
-        return [Param(n, "Pa", 1e-6 * S if n == "C10" else -big, big, modulus=True) for n in names]
-    if form == "reduced_polynomial":
-        return [Param(f"C[{i}]", "Pa", -big, big, modulus=True) for i in range(terms)]
-    if form == "polynomial":
-        names = ("C10", "C01") if terms == 1 else ("C10", "C01", "C20", "C11", "C02")
-        return [Param(n, "Pa", -big, big, modulus=True) for n in names]
-    if form == "ogden":
-        out = []
-        for i in range(terms):
-            out.append(Param(f"mu[{i}]", "Pa", -big, big, modulus=True))
-            out.append(Param(f"alpha[{i}]", "1", -20.0, 20.0))
-        return out
-    if form == "hgo":
-        return [
-            Param("C10", "Pa", 1e-6 * S, big, modulus=True),
-            Param("k1", "Pa", 1e-3 * S, 1e4 * S, log=True),
-            Param("k2", "1", 1e-6, 20.0),
-            Param("kappa", "1", 0.0, 1.0 / 3.0),
-        ]
-    if form == "linear_elastic":
-        return [Param("E", "Pa", 0.1 * S, 1000.0 * S, log=True)]
-    raise ValueError(f"model form {form!r} is not valid: choose one of {', '.join(FORMS)}")
+    """Fitted parameters of the elastic core, from the law's :class:`Fit` field metadata, with bounds for
+    the modulus scale ``S`` [Pa]. Scalar fields in declaration order (those whose ``order`` is at most
+    ``terms``); tuple fields (Ogden's ``mu``, ``alpha``) term by term: ``mu[0], alpha[0], mu[1], ...``."""
+    if form not in FORMS:
+        raise ValueError(f"model form {form!r} is not valid: choose one of {', '.join(FORMS)}")
+    out: list[Param] = []
+    series: list[dataclasses.Field] = []
+    for f in get_material_class(form).parameter_fields():
+        fit: Fit | None = f.metadata.get("fit")
+        if fit is None:
+            continue
+        if is_sequence_field(f):
+            if not series:
+                out.append(None)  # type: ignore[arg-type]  # where the term-by-term block goes
+            series.append(f)
+        elif fit.order <= terms:
+            out.append(Param(f.name, f.metadata["unit"], *fit.bounds(S), fit.log, fit.modulus))
+    block = [Param(f"{f.name}[{i}]", f.metadata["unit"], *f.metadata["fit"].bounds(S),  # type: ignore[call-arg]
+                   f.metadata["fit"].log, f.metadata["fit"].modulus)  # (*Any: mypy cannot count the arguments)
+             for i in range(terms) for f in series]
+    return [q for p in out for q in (block if p is None else [p])]
+
+
+def _declared_start(form: str, name: str, S: float) -> float | None:
+    """Start value a law declares for fitted parameter ``name`` (``field`` or ``field[i]``), or None."""
+    field_name, _, index = name.partition("[")
+    f = next((f for f in get_material_class(form).parameter_fields() if f.name == field_name), None)
+    fit = None if f is None else f.metadata.get("fit")
+    return None if fit is None else fit.start_value(int(index[:-1]) if index else None, S)
 
 
 @dataclass
@@ -173,8 +177,8 @@ class ModelForm:
         t_lo, t_hi = self.time_range
         params = _elastic_params(self.form, self.terms, self.scale)
         if self.fit_bulk_modulus:
-            if self.form == "linear_elastic":
-                raise ValueError("fit_bulk_modulus is not available for linear_elastic (E and a fixed nu)")
+            if "K" not in {f.name for f in get_material_class(self.form).parameter_fields()}:
+                raise ValueError(f"fit_bulk_modulus is not available for {self.form} (E and a fixed nu)")
             params.append(Param("K", "Pa", 0.3 * self.scale, 1.0e5 * self.scale, log=True))
         for j in range(self.prony_terms):
             params.append(Param(f"g[{j}]", "1", 1e-6, 1.0 - 1e-6))
@@ -246,35 +250,27 @@ class ModelForm:
         return out
 
     def default_start(self) -> np.ndarray:
-        """A neutral, valid start point: moduli sharing the scale (Yeoh and reduced polynomial: the
-        neo-Hookean solid C10 = S/2, higher orders 0), alpha = +-2, g_j = 0.5/M,
-        tau_j spread geometrically over their range (all clipped into the bounds)."""
-        mod = [p for p in self.params if p.modulus]
+        """A neutral, valid start point: each parameter's declared start (:class:`Fit`; Yeoh and
+        reduced polynomial: the neo-Hookean solid C10 = S/2, higher orders 0; Ogden alpha = +-2), else
+        moduli sharing the scale S, other stresses S, anything else the middle of its bounds;
+        g_j = 0.5/M, tau_j spread geometrically over their range, K the fixed one (all clipped into
+        the bounds)."""
+        n_mod = sum(p.modulus for p in self.params)
+        tau_at = self.indices("tau")
         out = []
-        n_alpha = 0
-        series = self.form in ("yeoh", "reduced_polynomial")
         for j, p in enumerate(self.params):
-            if p.modulus and series:
-                # the neo-Hookean solid of the data's modulus (G0 = 2 C10 = S): higher orders start at 0, since
-                # (I1 - 3)^i of large-stretch data (Treloar: I1 - 3 = 50) makes an equal share of S dominate
-                v = 0.5 * self.scale if j == mod[0] else 0.0
-            elif p.modulus:
-                v = self.scale / max(len(mod), 1)
-            elif p.field == "alpha":
-                v = 2.0 if n_alpha % 2 == 0 else -2.0
-                n_alpha += 1
+            v = None if p.field in ("g", "tau", "K") else _declared_start(self.form, p.name, self.scale)
+            if v is not None:
+                pass
             elif p.field == "g":
                 v = 0.5 / self.prony_terms
             elif p.field == "tau":
-                k = self.indices("tau").index(j)
                 lo, hi = p.u_bounds
-                v = 10.0 ** (lo + (hi - lo) * (k + 1) / (self.prony_terms + 1))
-            elif p.field == "kappa":
-                v = 0.1
-            elif p.field == "k2":
-                v = 1.0
+                v = 10.0 ** (lo + (hi - lo) * (tau_at.index(j) + 1) / (self.prony_terms + 1))
             elif p.field == "K":
                 v = float(self.fixed.get("K", 100.0 * self.scale))
+            elif p.modulus:
+                v = self.scale / n_mod
             else:
                 v = self.scale if p.unit == "Pa" else 0.5 * (p.lower + p.upper)
             out.append(min(max(v, p.lower), p.upper))
@@ -295,13 +291,8 @@ class ModelForm:
     def elastic_dict(self, theta: np.ndarray) -> dict[str, Any]:
         """``to_dict`` form of the elastic core."""
         d: dict[str, Any] = {"kind": self.form}
-        fixed = dict(self.fixed)
-        if self.form == "linear_elastic":
-            fixed.pop("K", None)
-            fixed.pop("volumetric", None)
-        else:
-            fixed.pop("nu", None)
-        d.update(fixed)
+        names = {f.name for f in dataclasses.fields(get_material_class(self.form))}
+        d.update({k: v for k, v in self.fixed.items() if k in names or k not in SHARED_FIXED})
         d.update(self._fields(theta, ("g", "tau")))
         return d
 
@@ -341,7 +332,7 @@ class ModelForm:
         return np.array(out, dtype=float)
 
     def describe(self) -> str:
-        s = f"{self.form} ({self.terms} term{'s' if self.terms > 1 else ''})"
+        s = f"{self.form} ({self.terms} term{'s' if self.terms > 1 else ''})"  # type: ignore[operator]  # set
         return s + (f" + {self.prony_terms}-term Prony series" if self.prony_terms else "")
 
 

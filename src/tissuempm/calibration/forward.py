@@ -54,9 +54,8 @@ import numpy as np
 from scipy import signal
 
 from tissuempm.calibration.data import Curve
-from tissuempm.materials import HGO, LinearElastic, Ogden
 from tissuempm.materials.drivers import DriverError, stress_strain
-from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
+from tissuempm.materials.invariant_hyperelastic import shear_stretches  # noqa: F401  (re-exported: calibration.fit)
 
 DEFAULT_MAX_INCREMENT = 0.0025
 """Largest strain increment of the sampled loading history (hyper-viscoelastic models)."""
@@ -68,57 +67,11 @@ DRIVER_TOL = 1.0e-12
 _BLOCK = 256
 
 
-def shear_stretches(gamma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """In-plane principal stretches (lam_1, lam_2) of simple shear, lam_1,2 = sqrt(1 + gamma^2/4) +- gamma/2.
-
-    They are the square roots of the eigenvalues of the in-plane block [[1 + gamma^2, gamma], [gamma, 1]]
-    of B = F F^T (lam_1 lam_2 = 1, lam_1 - lam_2 = gamma, lam_3 = 1).
-    """
-    g = np.asarray(gamma, dtype=float)
-    root = np.sqrt(1.0 + 0.25 * g * g)
-    return root + 0.5 * g, root - 0.5 * g
-
-
 def simple_shear_stress(elastic, gamma: np.ndarray) -> np.ndarray:
-    """Incompressible elastic shear stress tau0 = sigma12 = P12 [Pa] in simple shear.
-
-    Kinematics: F = I + gamma e1 (x) e2 (J = 1, fully prescribed), so
-
-        B = F F^T = I + gamma (e1 (x) e2 + e2 (x) e1) + gamma^2 e1 (x) e1,
-        B^-1 = I - gamma (e1 (x) e2 + e2 (x) e1) + gamma^2 e2 (x) e2,
-        I1 = tr B = 3 + gamma^2,   I2 = (I1^2 - tr B^2)/2 = 3 + gamma^2.
-
-    The pressure multiplies I and never enters the 12 component, so no lateral condition is
-    needed (the normal stresses, which carry the Poynting effect, are not fitted). Since
-    P = sigma F^-T with (F^-T)_22 = 1 and (F^-T)_12 = 0, P12 = sigma12: nominal and Cauchy shear
-    stress coincide.
-
-    * Isotropic invariant laws (neo-Hookean, Mooney-Rivlin, Yeoh, polynomial families;
-      sigma = -p I + 2 W1 B - 2 W2 B^-1)::
-
-          tau = 2 W1 gamma - 2 W2 (B^-1)_12 = 2 gamma (W1 + W2),   W_i = dW/dI_i at I1 = I2 = 3 + gamma^2
-
-    * Ogden (principal-stretch law; beta(lam) = lam dW/dlam = sum_i (2 mu_i/alpha_i) lam^alpha_i,
-      Cauchy principal stresses sigma_a = beta(lam_a) - p). The in-plane principal stretches are
-      lam_1,2 = sqrt(1 + gamma^2/4) +- gamma/2 (:func:`shear_stretches`), lam_3 = 1, and the Eulerian
-      axis of lam_1 makes the angle theta with e1, tan 2 theta = 2 B12/(B11 - B22) = 2/gamma, so
-      sin 2 theta = 2/sqrt(4 + gamma^2) = 2/(lam_1 + lam_2). With sigma = sum_a sigma_a n_a (x) n_a::
-
-          tau = (sigma_1 - sigma_2) sin(2 theta)/2 = (beta(lam_1) - beta(lam_2)) / (lam_1 + lam_2)
-
-      (alpha = 2, one term: beta = mu lam^2 and tau = mu (lam_1 - lam_2) = mu gamma, neo-Hookean.)
-    * HGO with the fiber along the shear direction e1 (the convention of every HGO closed form
-      here, and the driver's default fiber): F a0 = a0, so I4 = 1 and the fiber strain is
-      E = kappa (I1 - 3) = kappa gamma^2; a0 (x) a0 has no 12 component, hence
-      tau = 2 gamma W1 with W1 = C10 + kappa psi'(E). Other fiber directions need the driver.
-    * Linear elastic core (small strain): tau = G gamma, G = E / (2 (1 + nu)).
-
-    Parameters
-    ----------
-    elastic
-        Elastic core (one of the laws above).
-    gamma
-        Engineering shear strain gamma = F12 [-].
+    """Shear stress tau [Pa] of an incompressible elastic core in simple shear F = I + gamma e1 (x) e2
+    (plane strain): the law's own closed form (``simple_shear_stress`` of each law: invariant laws
+    tau = 2 gamma (W1 + W2) at I1b = I2b = 3 + gamma^2; Ogden from the in-plane principal stretches;
+    HGO with the fiber along e1; a linear core tau = G gamma).
 
     Raises
     ------
@@ -131,43 +84,19 @@ def simple_shear_stress(elastic, gamma: np.ndarray) -> np.ndarray:
     Ogden, R. W. (1984) Non-Linear Elastic Deformations, sec. 5.2 (simple shear, principal axes);
     Gasser, Ogden & Holzapfel (2006) J. R. Soc. Interface 3: 15-35 (HGO fiber strain E).
     """
-    g = np.asarray(gamma, dtype=float)
-    if isinstance(elastic, InvariantHyperelastic):
-        inv = 3.0 + g * g
-        W1, W2 = elastic.iso_derivatives(inv, inv)
-        return 2.0 * g * (W1 + W2)
-    if isinstance(elastic, Ogden):
-        lam1, lam2 = shear_stretches(g)
-        return (elastic.beta(lam1) - elastic.beta(lam2)) / (lam1 + lam2)
-    if isinstance(elastic, HGO):
-        W1, _ = elastic.iso_derivatives(3.0 + g * g, np.ones_like(g))
-        return 2.0 * g * W1
-    if isinstance(elastic, LinearElastic):
-        return elastic.E / (2.0 * (1.0 + elastic.nu)) * g
-    raise ValueError(
-        f"no simple_shear closed form for material kind {getattr(elastic, 'kind', type(elastic).__name__)!r}; "
-        f"use forward = 'driver'"
-    )
+    return elastic.simple_shear_stress(np.asarray(gamma, dtype=float))
 
 
 def elastic_stress(elastic, mode: str, strain: np.ndarray) -> np.ndarray:
-    """Instantaneous nominal stress P0 [Pa] of an elastic core at engineering ``strain`` in ``mode``.
-
-    Stretch modes use ``elastic.nominal_stress_incompressible(mode, 1 + strain)`` (hyperelastic
-    laws); a linear elastic core gives the small-strain uniaxial stress ``E strain``. In simple
+    """Instantaneous nominal stress P0 [Pa] of an elastic core at engineering ``strain`` in ``mode``:
+    the law's ``nominal_stress`` (hyperelastic laws: the incompressible closed form at stretch
+    1 + strain; a linear elastic core: the small-strain uniaxial stress ``E strain``). In simple
     shear ``strain`` is gamma and the result the shear stress (:func:`simple_shear_stress`).
     """
     eps = np.asarray(strain, dtype=float)
     if mode == "simple_shear":
         return simple_shear_stress(elastic, eps)
-    f = getattr(elastic, "nominal_stress_incompressible", None)
-    if f is not None:
-        return np.asarray(f(mode, 1.0 + eps), dtype=float)
-    if isinstance(elastic, LinearElastic):
-        if mode != "uniaxial":
-            raise ValueError(f"a linear elastic core supports only uniaxial and simple_shear data, not {mode!r}")
-        return elastic.E * eps
-    raise TypeError(f"{type(elastic).__name__} has no incompressible closed form (nominal_stress_incompressible)")
+    return elastic.nominal_stress(mode, eps)
 
 
 def phi(x: np.ndarray) -> np.ndarray:
@@ -320,9 +249,9 @@ def driver_response(
     step = max_increment if material.n_state > 0 else np.inf
     rate = None if strain_rate is None else abs(strain_rate)
     try:
-        result = stress_strain(material, mode, x, rate=rate, max_increment=step, tol=DRIVER_TOL)
+        result = stress_strain(material, mode, x, rate=rate, max_increment=step, tol=DRIVER_TOL)  # type: ignore[arg-type]
     except DriverError:
-        result = stress_strain(material, mode, x, rate=rate, max_increment=step)
+        result = stress_strain(material, mode, x, rate=rate, max_increment=step)  # type: ignore[arg-type]
     return result.nominal_axial
 
 
@@ -374,4 +303,5 @@ def linear_constant_rate(E: float, g, tau, strain_rate: float, strain: np.ndarra
     g = np.asarray(g, dtype=float)
     tau = np.asarray(tau, dtype=float)
     t = np.asarray(strain, dtype=float) / strain_rate
-    return E * strain_rate * ((1 - g.sum()) * t + np.sum(g[:, None] * tau[:, None] * -np.expm1(-t[None] / tau[:, None]), axis=0))
+    return E * strain_rate * ((1 - g.sum()) * t
+                              + np.sum(g[:, None] * tau[:, None] * -np.expm1(-t[None] / tau[:, None]), axis=0))

@@ -22,6 +22,7 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
+
 from tissuempm.calibration.fit import FitResult, build_problem, restart_from
 from tissuempm.calibration.optimizers import Problem
 from tissuempm.calibration.polish import KKT_RTOL, polish
@@ -124,7 +125,7 @@ def profile_likelihood(
         Grid of values (default: ``n_points`` over theta (1 +- span), log-spaced for log parameters,
         clipped to the bounds).
     """
-    restarts = []
+    restarts: list[str] = []
     while True:
         prof = _profile(result, name, values, n_points, span)
         k = int(np.argmin(prof["cost"]))

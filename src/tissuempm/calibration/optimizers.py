@@ -41,15 +41,17 @@ import time
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
+from pydantic import Field
 from scipy import optimize
 from scipy.stats import qmc
 
 from tissuempm.calibration.constraints import Constraints
 from tissuempm.calibration.cost import CostFunction
 from tissuempm.calibration.polish import Optimality, kkt_residual, polish, relative_steps
+from tissuempm.options import check
 
 PENALTY = 1.0e3
 """Score = cost + PENALTY x constraint violation (stage 1 / stage 2 merit)."""
@@ -59,7 +61,9 @@ INVALID_COST = 1.0e3
 
 @dataclass(frozen=True)
 class SearchSettings:
-    """Settings of the global search (all have defaults; ``seed`` makes runs reproducible).
+    """Settings of the global search (all have defaults; ``seed`` makes runs reproducible). Each
+    setting's type and range is its annotation, checked on construction and shared with the
+    ``[optimizer]`` table of a calibration config (:mod:`tissuempm.options`).
 
     Attributes
     ----------
@@ -96,23 +100,26 @@ class SearchSettings:
     """
 
     method: Literal["globalsearch", "differential_evolution"] = "globalsearch"
-    seed: int = 0
+    seed: Annotated[int, Field(ge=0, le=2**32 - 1)] = 0  # NumPy's seeds
     local_solver: Literal["slsqp", "trust-constr"] = "slsqp"
-    trial_points: int | None = None
-    stage1_points: int | None = None
-    max_local_runs: int | None = None
-    min_local_runs: int | None = None
-    local_maxiter: int = 400
-    distance_threshold: float = 0.75
-    basin_radius_factor: float = 0.2
-    penalty_threshold_factor: float = 0.2
-    max_wait_cycle: int = 20
-    popsize: int = 15
-    maxiter: int = 200
-    polish: int = 5
-    x_tol: float = 1e-3
-    f_tol: float = 1e-6
+    trial_points: Annotated[int, Field(ge=10)] | None = None
+    stage1_points: Annotated[int, Field(ge=2)] | None = None
+    max_local_runs: Annotated[int, Field(ge=1)] | None = None
+    min_local_runs: Annotated[int, Field(ge=1)] | None = None
+    local_maxiter: Annotated[int, Field(ge=1)] = 400
+    distance_threshold: Annotated[float, Field(gt=0.0)] = 0.75
+    basin_radius_factor: Annotated[float, Field(gt=0.0, lt=1.0)] = 0.2
+    penalty_threshold_factor: Annotated[float, Field(gt=0.0)] = 0.2
+    max_wait_cycle: Annotated[int, Field(ge=1)] = 20
+    popsize: Annotated[int, Field(ge=4)] = 15
+    maxiter: Annotated[int, Field(ge=1)] = 200
+    polish: Annotated[int, Field(ge=1)] = 5
+    x_tol: Annotated[float, Field(gt=0.0)] = 1e-3
+    f_tol: Annotated[float, Field(gt=0.0)] = 1e-6
     start: tuple[float, ...] | None = None
+
+    def __post_init__(self) -> None:
+        check(self)  # each setting by its annotation, shared with a config's [optimizer] (tissuempm.options)
 
     def for_parameters(self, n: int) -> SearchSettings:
         """These settings with the defaults that scale with the number n of free parameters filled in.
@@ -207,8 +214,8 @@ class Problem:
     def scales(self, x: np.ndarray) -> np.ndarray:
         """Unit-box change per relative parameter change at ``x`` (:func:`.polish.relative_steps`)."""
         p = self.form.params
-        return relative_steps([q.lower for q in p], [q.upper for q in p], [q.log for q in p],
-                              self.form.theta(np.clip(x, 0.0, 1.0)))
+        return relative_steps(np.array([q.lower for q in p]), np.array([q.upper for q in p]),
+                              np.array([q.log for q in p]), self.form.theta(np.clip(x, 0.0, 1.0)))
 
     def optimality(self, x: np.ndarray) -> Optimality:
         """KKT residual at ``x`` (:func:`~tissuempm.calibration.polish.kkt_residual`)."""
@@ -289,7 +296,7 @@ def scatter_search(problem: Problem, n_points: int, rng: np.random.Generator) ->
         d[ref] = -1.0
         ref.append(int(np.argmax(d)))
     R = div[ref]
-    combos = []
+    combos: list[np.ndarray] = []
     pairs = [(i, j) for i in range(len(R)) for j in range(i + 1, len(R))]
     rng.shuffle(pairs)
     k = 0
@@ -309,6 +316,11 @@ def global_search(
     problem: Problem, settings: SearchSettings, progress: Callable[[int, int, float], None] | None = None
 ) -> SearchResult:
     """GlobalSearch-like multistart (module docstring)."""
+    # the counts that scale with the number of parameters, filled in by SearchSettings.for_parameters (search)
+    trial_points, stage1_points = settings.trial_points, settings.stage1_points
+    max_runs, min_runs = settings.max_local_runs, settings.min_local_runs
+    assert trial_points is not None and stage1_points is not None and max_runs is not None and min_runs is not None, (
+        "global_search needs settings.for_parameters(n)")
     t0 = time.perf_counter()
     nfev0 = problem.cost.nfev
     rng = np.random.default_rng(settings.seed)
@@ -332,18 +344,18 @@ def global_search(
         if minima.items[i].feasible:
             best = min(best, minima.items[i].cost)
         if progress:
-            progress(runs, settings.max_local_runs, best)
+            progress(runs, max_runs, best)
 
     x0 = problem.form.x(problem.form.default_start() if settings.start is None else np.array(settings.start))
     run(x0)
-    pts, scores = scatter_search(problem, settings.trial_points, rng)
-    n1 = min(settings.stage1_points, len(scores))
+    pts, scores = scatter_search(problem, trial_points, rng)
+    n1 = min(stage1_points, len(scores))
     i1 = int(np.argmin(scores[:n1]))
     run(pts[i1])
     threshold = min(problem.score(x0), scores[i1])
     wait = 0
     for k in range(n1, len(pts)):
-        if runs >= settings.max_local_runs:
+        if runs >= max_runs:
             break
         x = pts[k]
         s = scores[k] if k < len(scores) else problem.score(x)
@@ -366,7 +378,7 @@ def global_search(
     used = [m.start for m in minima.items if m.start is not None]
     all_scores = np.array([scores[k] if k < len(scores) else problem.score(pts[k]) for k in range(len(pts))])
     for k in np.argsort(all_scores):
-        if runs >= min(settings.min_local_runs, settings.max_local_runs):
+        if runs >= min(min_runs, max_runs):
             break
         if all(np.linalg.norm(pts[k] - u) > 0.1 for u in used):
             run(pts[k])

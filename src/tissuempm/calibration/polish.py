@@ -235,10 +235,10 @@ def polish(
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             res = optimize.minimize(
-                lambda z: f(to_x(z)), np.zeros_like(x), jac=lambda z: gradient(f, to_x(z), sigma),
+                lambda z: f(to_x(z)), np.zeros_like(x), jac=lambda z: gradient(f, to_x(z), sigma),  # noqa: B023 (used in this round)
                 method="SLSQP", bounds=optimize.Bounds(-xa / sigma, (1.0 - xa) / sigma),
                 constraints=[{"type": "ineq", "fun": lambda z: cons(to_x(z)),
-                              "jac": lambda z: np.atleast_2d(gradient(cons, to_x(z), sigma))}],
+                              "jac": lambda z: np.atleast_2d(gradient(cons, to_x(z), sigma))}],  # noqa: B023
                 options={"maxiter": maxiter, "ftol": 1e-16},
             )
         progress = accept(to_x(res.x))

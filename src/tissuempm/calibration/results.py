@@ -21,20 +21,23 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, Literal
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from pydantic import Field  # noqa: E402
 
-from tissuempm.calibration.export import write_all  # noqa: E402
+from tissuempm.calibration.export import UNIT_SYSTEMS, write_all  # noqa: E402
 from tissuempm.calibration.fit import FitResult  # noqa: E402
 from tissuempm.calibration.forward import uniaxial_response  # noqa: E402
 from tissuempm.materials.base import Material  # noqa: E402
 from tissuempm.materials.plots import STYLE, finish_axes, stress_unit  # noqa: E402
+from tissuempm.options import check  # noqa: E402
 
 MODE_TITLES = {
     "uniaxial": "uniaxial (tension +, compression -)",
@@ -196,11 +199,38 @@ def write_library_entry(path: Path, name: str, material: Material, source: str, 
     return Path(write_entry(path, name, material, source, notes, title=title))
 
 
-def write_results(
-    result: FitResult, out: Path, name: str, *, title: str | None = None, source: str = "",
-    plots: bool = True, plot_rates_list: list[float] | None = None, lsdyna_units: str = "SI",
-) -> dict[str, str]:
-    """Write every result file into ``out`` (module docstring); returns {kind: path}."""
+@dataclass(frozen=True, kw_only=True)
+class OutputOptions:
+    """What :func:`write_results` writes besides the tables (each option's type and range is its
+    annotation, shared with a calibration config's ``[output]``, :mod:`tissuempm.options`).
+
+    Attributes
+    ----------
+    title
+        Title of the library entry and the figures (default: the entry's name).
+    plots
+        Write the figures (``fit.png``, ``rates.png``, ...).
+    plot_rates
+        Strain rates [1/s] (> 0) of the -30..+30 % plot (default: those of the data).
+    lsdyna_units
+        Unit system of the LS-DYNA card (:data:`tissuempm.calibration.export.UNIT_SYSTEMS`).
+    """
+
+    title: str | None = None
+    plots: bool = True
+    plot_rates: tuple[Annotated[float, Field(gt=0.0, allow_inf_nan=False)], ...] = ()
+    lsdyna_units: Literal[tuple(UNIT_SYSTEMS)] = "SI"  # type: ignore[valid-type]
+
+    def __post_init__(self) -> None:
+        check(self)  # each option by its annotation (tissuempm.options)
+
+
+def write_results(result: FitResult, out: Path, name: str, options: OutputOptions | None = None, *,
+                  source: str = "") -> dict[str, str]:
+    """Write every result file into ``out`` (module docstring) as ``options`` say (default
+    :class:`OutputOptions`); returns {kind: path}."""
+    options = options or OutputOptions()
+    title = options.title
     out.mkdir(parents=True, exist_ok=True)
     files: dict[str, str] = {}
     (out / "result.json").write_text(to_json(result))
@@ -218,11 +248,12 @@ def write_results(
     )
     files["library"] = str(write_library_entry(out / f"{name}.toml", name, result.material, source, notes,
                                                title or name))
-    files.update(write_all(result.material, str(out / name), name, units=lsdyna_units))
-    if plots:
+    files.update(write_all(result.material, str(out / name), name, units=options.lsdyna_units))
+    if options.plots:
         plot_fit(result, out / "fit.png")
         files["fit_plot"] = str(out / "fit.png")
-        rates = plot_rates_list or sorted({abs(c.strain_rate) for c in result.curves if c.strain_rate}) or [None]
+        found = sorted({abs(c.strain_rate) for c in result.curves if c.strain_rate})
+        rates: list[float | None] = list(options.plot_rates or found) or [None]
         plot_rates(result.material, list(rates), out / "rates.png", forward=result.objective.forward,
                    title=f"{title or name}: {result.form.describe()}")
         files["rates_plot"] = str(out / "rates.png")

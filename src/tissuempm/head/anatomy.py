@@ -34,6 +34,7 @@ grid after the probability maps are averaged over each target voxel:
 
 import importlib.util
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -83,9 +84,9 @@ def load_templates() -> tuple[dict[str, np.ndarray], np.ndarray]:
     folder = template_folder()
     maps, affine = {}, None
     for key, name in ICBM_FILES.items():
-        img = nib.load(str(folder / name))
+        img: Any = nib.load(str(folder / name))  # a Nifti1Image (nibabel types the result as the base class)
         maps[key] = np.asarray(img.dataobj, dtype=np.float32) / 255.0
-        affine = np.asarray(img.affine, dtype=float)
+        affine = np.asarray(img.affine, dtype=np.float64)
     return maps, affine  # type: ignore[return-value]
 
 
@@ -147,7 +148,8 @@ def segment_brain(maps: dict[str, np.ndarray], affine_mm: np.ndarray) -> tuple[d
     x, y, z = (affine_mm[k, k] * idx[k] + affine_mm[k, 3] for k in range(3))
     a, b, c = TENTORIUM
     infra = (y < FOSSA_Y) & (z < a + b * (y + 40.0) - c * np.abs(x))
-    box = (np.abs(x) < STEM_HALF_WIDTH) & (z < STEM_TOP) & (y > -32.0 + 0.3 * (z + 10.0)) & (y < -5.0 + 0.4 * (z + 10.0))
+    box = ((np.abs(x) < STEM_HALF_WIDTH) & (z < STEM_TOP)
+           & (y > -32.0 + 0.3 * (z + 10.0)) & (y < -5.0 + 0.4 * (z + 10.0)))
     stem = brain & box
     cerebellum = brain & infra & ~stem
     cerebrum = brain & ~cerebellum & ~stem

@@ -31,8 +31,12 @@ def _fail(error: Exception | str) -> typer.Exit:
 def build(
     resolution: Annotated[str, typer.Option("--resolution", "-r", help="Voxel edge, e.g. '4 mm' (0.5 to 10 mm; "
                                             "synthetic 0.2 to 20 mm).")] = "4 mm",  # fmt: skip
-    out: Annotated[Path, typer.Option("--out", "-o", help="NIfTI volume to write (.nii.gz or .nii).")] = Path("head.nii.gz"),
-    synthetic: Annotated[bool, typer.Option("--synthetic", help="Nested ellipsoids instead of the ICBM anatomy.")] = False,
+    out: Annotated[
+        Path, typer.Option("--out", "-o", help="NIfTI volume to write (.nii.gz or .nii).")
+    ] = Path("head.nii.gz"),
+    synthetic: Annotated[
+        bool, typer.Option("--synthetic", help="Nested ellipsoids instead of the ICBM anatomy.")
+    ] = False,
     figure: Annotated[Path | None, typer.Option("--figure", help="PNG of the slices (default: next to --out).")] = None,
     scale: Annotated[float, typer.Option("--scale", help="Isotropic scale of the ICBM head (1: MNI space).")] = 1.0,
 ) -> None:
@@ -41,7 +45,7 @@ def build(
     Point a scenario at it with [[label_volume]] file = "NAME.nii.gz", table = "NAME.labels.toml"
     (docs/head.md).
     """
-    from tissuempm.head.build import HeadError, build_head, check_resolution, outputs, write_outputs
+    from tissuempm.head.build import build_head, check_resolution, outputs, write_outputs
     from tissuempm.scenarios.units import UnitError, parse_quantity
 
     try:

@@ -37,13 +37,13 @@ misplace that whole layer)."""
 
 
 def _inside(x: np.ndarray, centre: tuple[float, ...], axes: tuple[float, ...]) -> np.ndarray:
-    return sum(((x[..., k] - centre[k]) / axes[k]) ** 2 for k in range(3)) <= 1.0
+    return sum(((x[..., k] - centre[k]) / axes[k]) ** 2 for k in range(3)) <= 1.0  # type: ignore[return-value]
 
 
 def _shells() -> list[tuple[str, tuple[float, float, float]]]:
     out, axes = [], BRAIN
     for name, t in LAYERS:
-        axes = tuple(a + t for a in axes)
+        axes = (axes[0] + t, axes[1] + t, axes[2] + t)
         out.append((name, axes))
     return out
 
@@ -74,7 +74,8 @@ def synthetic_head(resolution: float = 0.002) -> tuple[np.ndarray, np.ndarray]:
     below = x[..., 2] < -CEREBELLUM_PLANE
     brain = _inside(x, zero, BRAIN)
     white = _inside(x, zero, WHITE_MATTER)
-    labels[brain & ~white] = np.where(below, LABEL["cerebellum_grey_matter"], LABEL["cerebrum_grey_matter"])[brain & ~white]
+    grey = np.where(below, LABEL["cerebellum_grey_matter"], LABEL["cerebrum_grey_matter"])
+    labels[brain & ~white] = grey[brain & ~white]
     labels[white] = np.where(below, LABEL["cerebellum_white_matter"], LABEL["cerebrum_white_matter"])[white]
     labels[_inside(x, *BRAIN_STEM)] = LABEL["brain_stem"]
     labels[_inside(x, *VENTRICLES)] = LABEL["ventricles"]

@@ -48,6 +48,8 @@ class BackgroundWriter:
         self._error: OutputError | None = None
         self.busy_s = 0.0
         """Wall time [s] the writer thread spent writing."""
+        self.job_s: list[tuple[str, float]] = []
+        """Name and wall time [s] of each job written, in order (e.g. the time per frame)."""
         self.wait_s = 0.0
         """Wall time [s] the submitting thread waited for room in the queue or for :meth:`drain`."""
         self._thread = threading.Thread(target=self._work, name="tissuempm-writer", daemon=True)
@@ -66,7 +68,9 @@ class BackgroundWriter:
                         fn(*args)
                     except Exception as e:  # noqa: BLE001 - reported to the run loop, which stops
                         self._error = OutputError(f"writing {name} failed: {type(e).__name__}: {e}")
-                    self.busy_s += time.perf_counter() - t0
+                    took = time.perf_counter() - t0
+                    self.busy_s += took
+                    self.job_s.append((name, took))
             finally:
                 self._queue.task_done()
 

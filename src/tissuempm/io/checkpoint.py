@@ -38,7 +38,8 @@ def check_arrays(arrays: dict[str, Any], declared: Any, path: str | Path) -> Non
         raise CheckpointError(f"{path} has an unreadable 'meta' attribute: 'dtypes' is not a JSON object")
     declared = declared or {}
     for name in sorted(set(declared) - set(arrays)):
-        raise CheckpointError(f"{path} is not a complete checkpoint of this run: the array {name!r} it records is missing")
+        raise CheckpointError(f"{path} is not a complete checkpoint of this run: the array {name!r} it records "
+                              "is missing")
     for name, value in arrays.items():
         a = np.asarray(value)
         want = declared.get(name)

@@ -96,7 +96,8 @@ class HeadColumns:
         if not np.any(sel):
             self.previous = None
             return [float("nan")] * len(self.columns)
-        _, vc, omega = rigid_motion(np.asarray(data["x"])[sel], np.asarray(data["v"])[sel], np.asarray(data["mass"])[sel])
+        _, vc, omega = rigid_motion(np.asarray(data["x"])[sel], np.asarray(data["v"])[sel],
+                                    np.asarray(data["mass"])[sel])
         acc = alpha = np.full(3, np.nan)
         if self.previous is not None and t > self.previous[0]:
             dt = t - self.previous[0]

@@ -3,7 +3,8 @@
 Columns: ``time`` [s], ``step``, ``kinetic_energy`` [J], ``momentum_x/y/z`` [kg m/s]
 and ``internal_work`` [J] of the deformable particles, ``bulk_viscosity_work`` [J] (the energy
 the artificial bulk viscosity has dissipated; 0 without it), ``failed`` (particles with a
-failure code > 0), ``reaction_<material>_x/y/z`` [N] on each rigid material and
+failure code other than ``FailureMode.INTACT``; laws without failure write ``NO_FAILURE_MODEL`` = -1),
+``reaction_<material>_x/y/z`` [N] on each rigid material and
 ``fixed_reaction_x/y/z`` [N] on the fixed particles (the force the rest of the model
 exerts on them; e.g. the grip force of a tensile test). Then, for each free rigid body (by its
 material's name; its contact force is its ``reaction_<material>`` columns),
@@ -22,9 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from tissuempm.mpm.axisymmetric import whole_body
-
 from tissuempm.io.files import atomic_path
+from tissuempm.materials.failure import FailureMode
+from tissuempm.mpm.axisymmetric import whole_body
 
 
 class HistoryLog:
@@ -68,7 +69,7 @@ class HistoryLog:
         out += list((m[:, None] * v).sum(axis=0))
         out.append(float(np.sum(np.asarray(data.get("work", np.zeros(len(m))))[deform])))
         out.append(float(np.sum(np.asarray(data.get("bulk_work", np.zeros(len(m)))))))
-        out.append(int(np.sum(np.asarray(data.get("failure", np.zeros(len(m)))) > 0)))
+        out.append(int(np.sum(np.asarray(data.get("failure", np.zeros(len(m)))) > FailureMode.INTACT)))
         for i in self.rigid:
             out += list(R[mat == i].sum(axis=0))
         out += list(R[fixed & deform].sum(axis=0))
@@ -120,7 +121,8 @@ class HistoryLog:
             keep.append(r)
         if len(keep) > 1:
             for provider in self.extra:
-                provider.restore({k: float(v) for k, v in zip(keep[0], keep[-1]) if k in provider.columns or k == "time"})
+                provider.restore({k: float(v) for k, v in zip(keep[0], keep[-1])
+                                  if k in provider.columns or k == "time"})
         with atomic_path(self.path) as tmp, open(tmp, "w", newline="") as f:
             csv.writer(f).writerows(keep)
 

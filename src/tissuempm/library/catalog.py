@@ -154,7 +154,7 @@ def _record_entry(record: dict[str, Any], shared: dict[str, Any], origin: str) -
         origin=origin,
     )
     try:  # parameters out of range are a malformed file, found when it is read, not when the entry is used
-        entry.material
+        _ = entry.material
         for label in entry.alternatives:
             entry.alternative(label)
     except (KeyError, TypeError, ValueError) as exc:

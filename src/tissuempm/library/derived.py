@@ -94,7 +94,8 @@ def material_derived(material: Material) -> dict[str, Quantity]:
         out["min_mu_alpha"] = Quantity(min(m * a for m, a in zip(mu, alpha)), "Pa")
     if inner.kind == "weiss":
         # slope of the fiber stress at lam = 1: d/dlam C3 (exp(C4 (lam - 1)) - 1) = C3 C4
-        out["fiber_modulus_toe"] = Quantity(float(inner.C3) * float(inner.C4), "Pa")
+        weiss: Any = inner  # a Weiss (its kind): C3, C4 are not Material fields
+        out["fiber_modulus_toe"] = Quantity(float(weiss.C3) * float(weiss.C4), "Pa")
     return out
 
 

@@ -89,12 +89,14 @@ class StabilityReport:
 
     def __str__(self) -> str:
         lo, hi = self.strain_range
-        lines = [f"{self.material}: Drucker stability over strain {lo:+.0%}..{hi:+.0%} ({self.method}, {self.evaluated})"]
+        lines = [f"{self.material}: Drucker stability over strain {lo:+.0%}..{hi:+.0%} "
+                 f"({self.method}, {self.evaluated})"]
         for m in self.modes.values():
             if m.error:
                 lines.append(f"  {m.mode:12s} not evaluated: {m.error}")
                 continue
-            text = "stable" if not m.unstable else "UNSTABLE at " + ", ".join(f"{a:+.3f}..{b:+.3f}" for a, b in m.unstable)
+            ranges = ", ".join(f"{a:+.3f}..{b:+.3f}" for a, b in m.unstable)
+            text = "stable" if not m.unstable else "UNSTABLE at " + ranges
             lines.append(f"  {m.mode:12s} {text}")
         return "\n".join(lines)
 
@@ -136,7 +138,7 @@ def _nominal(law: Material, mode: str, lam: np.ndarray, fiber: tuple[float, floa
         return np.asarray(law.nominal_stress_incompressible(mode, lam), dtype=float), "incompressible closed form"
     from tissuempm.materials.drivers import stress_strain
 
-    res = stress_strain(law, mode, lam, fiber=fiber)
+    res = stress_strain(law, mode, lam, fiber=fiber)  # type: ignore[arg-type]  # stress_strain checks the mode
     return np.asarray(res.nominal_axial, dtype=float), "quasi-static homogeneous driver"
 
 

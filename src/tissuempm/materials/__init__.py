@@ -13,7 +13,11 @@ from tissuempm.materials.base import (
     get_material_class,
     parameter,
 )
+from tissuempm.materials.elastic_plastic import ElasticPlastic
 from tissuempm.materials.eos import IdealGas, UsUp
+from tissuempm.materials.failure import FailureMode, TwoSurfaceFailure
+from tissuempm.materials.failure_layer import Failure
+from tissuempm.materials.gent import Gent
 from tissuempm.materials.hgo import HGO
 from tissuempm.materials.linear_elastic import LinearElastic, TransverselyIsotropicElastic
 from tissuempm.materials.mooney_rivlin import MooneyRivlin
@@ -21,17 +25,15 @@ from tissuempm.materials.neo_hookean import NeoHookean
 from tissuempm.materials.ogden import Ogden
 from tissuempm.materials.polynomial import Polynomial, ReducedPolynomial
 from tissuempm.materials.viscoelastic import Viscoelastic
-from tissuempm.materials.yeoh import Yeoh
 from tissuempm.materials.weiss import Weiss
-from tissuempm.materials.failure import FailureMode, TwoSurfaceFailure
-from tissuempm.materials.elastic_plastic import ElasticPlastic
-from tissuempm.materials.failure_layer import Failure
+from tissuempm.materials.yeoh import Yeoh
 
 __all__ = [
     "MATERIALS",
     "ElasticPlastic",
     "Failure",
     "FailureMode",
+    "Gent",
     "HGO",
     "IdealGas",
     "LinearElastic",

@@ -36,6 +36,12 @@ Solver-facing interface (all a solver needs to know about a law)
 
     The default returns the header's ``K_wave`` and ``G_wave``, which each law
     sets from :meth:`Material.wave_moduli`.
+``stress_moduli_function(precision)``
+    ``stress_moduli(F, L, a0, prm, s_in, s_out, p, dt) -> (sigma, K, G)``: the
+    stress and the moduli of the state it leaves, in one call (the explicit
+    stress pass, which also gives the next step's CFL speeds). The default calls
+    the two functions above; a law whose moduli reuse its stress's invariants
+    overrides ``_build_stress_moduli`` (the same values, computed once).
 ``tangent_function(precision)``
     A ``@wp.func`` for the implicit solver with the stress function's signature::
 
@@ -88,7 +94,7 @@ def parameter(
     ge: float | None = None,
     lt: float | None = None,
     le: float | None = None,
-    start: float | None = None,
+    fit: "Fit | None" = None,
     doc: str = "",
 ) -> Any:
     """Declare a material parameter as a dataclass field.
@@ -101,13 +107,61 @@ def parameter(
         Default value; a tuple for parameters with one value per term.
     gt, ge, lt, le
         Valid range (strict or inclusive bounds), checked for every element.
-    start
-        Start value for calibration (defaults to ``default``).
+    fit
+        How a calibration searches the parameter (:class:`Fit`: bounds, log scale, start value,
+        the term count from which it is fitted); None: never fitted. A law with fitted
+        parameters declares :attr:`Material.fit_terms` and is then a calibration form.
     doc
         One-line meaning of the parameter.
     """
-    metadata = {"unit": unit, "gt": gt, "ge": ge, "lt": lt, "le": le, "start": start, "doc": doc}
+    metadata = {"unit": unit, "gt": gt, "ge": ge, "lt": lt, "le": le, "fit": fit, "doc": doc}
     return field(default=default, metadata=metadata)
+
+
+@dataclass(frozen=True)
+class Fit:
+    """How calibration searches one material parameter (the ``fit`` of :func:`parameter`).
+
+    Attributes
+    ----------
+    lower, upper
+        Search bounds, in units of the data's modulus scale S [Pa]
+        (:func:`tissuempm.calibration.forms.modulus_scale`) when ``scaled``, else absolute.
+    scaled
+        Bounds and ``start`` are multiples of S (moduli).
+    log
+        Search in log10 (requires lower > 0).
+    modulus
+        Counts in the sum of moduli that must stay positive (sum mu_i > 0, sum C_ij > 0), and
+        without a ``start`` the moduli share S equally.
+    order
+        For a scalar field: fitted when the form has at least this many terms (Yeoh's C20: 2).
+        A tuple field (Ogden's ``mu``) is fitted with one entry per term.
+    start
+        Start value (multiple of S when ``scaled``); a tuple gives one per term. None: the moduli
+        share S equally, another stress is S, anything else the middle of its bounds. Starts are
+        clipped into the bounds.
+    """
+
+    lower: float
+    upper: float
+    scaled: bool = False
+    log: bool = False
+    modulus: bool = False
+    order: int = 1
+    start: float | tuple[float, ...] | None = None
+
+    def bounds(self, S: float) -> tuple[float, float]:
+        """Bounds for modulus scale ``S`` [Pa]."""
+        k = S if self.scaled else 1.0
+        return self.lower * k, self.upper * k
+
+    def start_value(self, i: int | None, S: float) -> float | None:
+        """Declared start of entry ``i`` (None for a scalar field) at modulus scale ``S``, or None."""
+        if self.start is None:
+            return None
+        v = self.start[i or 0] if isinstance(self.start, tuple) else self.start
+        return v * (S if self.scaled else 1.0)
 
 
 def describe_range(meta: dict[str, Any]) -> str:
@@ -121,7 +175,7 @@ def describe_range(meta: dict[str, Any]) -> str:
     return f"{text} {unit}".strip() if unit and unit != "1" else text
 
 
-def _is_sequence_field(f: dataclasses.Field) -> bool:
+def is_sequence_field(f: dataclasses.Field) -> bool:
     """Whether a parameter field holds a tuple of numbers (Ogden's ``mu``) rather than one number."""
     if f.default is not dataclasses.MISSING:
         return isinstance(f.default, (tuple, list))
@@ -186,6 +240,11 @@ class Material:
     """True when the law uses the fiber direction ``a0``."""
     rate_dependent: ClassVar[bool] = False
     """True when the stress depends on the loading rate (viscous laws)."""
+    fit_terms: ClassVar[tuple[int, int] | None] = None
+    """(default, maximum) number of terms when the law is a calibration form (its fitted parameters
+    are the fields declared with a :class:`Fit`); None: not a calibration form."""
+    fit_rank: ClassVar[int] = 100
+    """Position of the form in listings (:data:`tissuempm.calibration.forms.FORMS`)."""
 
     density: float = parameter("kg/m^3", default=1000.0, gt=0.0, doc="reference mass density rho0")
 
@@ -200,7 +259,7 @@ class Material:
             if "unit" not in f.metadata:
                 continue
             value = getattr(self, f.name)
-            if isinstance(value, (tuple, list)) and not _is_sequence_field(f):
+            if isinstance(value, (tuple, list)) and not is_sequence_field(f):
                 raise ParameterError(f"{owner}.{f.name} = {value!r} is a list: {f.name} is one number "
                                      f"(valid range: {describe_range(f.metadata)})")
             if isinstance(value, (tuple, list)):
@@ -313,6 +372,15 @@ class Material:
         return _cached_build(cls, "_build_moduli", precision)
 
     @classmethod
+    def stress_moduli_function(cls, precision: str = "float64") -> Any:
+        """``stress_moduli(F, L, a0, prm, s_in, s_out, p, dt) -> (sigma, K, G)`` (cached): the stress
+        function's Cauchy stress and the moduli of the state it leaves (``moduli(F, a0, prm, s_out, p)``),
+        what the explicit solver's stress pass needs for the next time step. The default calls the two
+        functions; laws whose moduli reuse the stress's invariants override ``_build_stress_moduli``
+        (same values, computed once: :class:`~tissuempm.materials.weiss.Weiss`)."""
+        return _cached_build(cls, "_build_stress_moduli", precision)
+
+    @classmethod
     def tangent_function(cls, precision: str = "float64") -> Any:
         """The law's spatial elasticity tensor ``@wp.func`` for ``precision`` (cached; module docstring)."""
         return _cached_build(cls, "_build_tangent", precision)
@@ -331,6 +399,29 @@ class Material:
     @classmethod
     def _build_moduli(cls, t: WarpTypes) -> Any:
         return header_moduli(t)
+
+    @classmethod
+    def _build_stress_moduli(cls, t: WarpTypes) -> Any:
+        stress = cls.stress_function(t.precision)
+        moduli = cls.moduli_function(t.precision)
+        s = t.scalar
+
+        @wp.func
+        def stress_moduli(
+            F: t.mat33,
+            L: t.mat33,
+            a0: t.vec3,
+            prm: wp.array(dtype=s),
+            s_in: wp.array2d(dtype=s),
+            s_out: wp.array2d(dtype=s),
+            p: int,
+            dt: s,
+        ):
+            sig = stress(F, L, a0, prm, s_in, s_out, p, dt)
+            K, G = moduli(F, a0, prm, s_out, p)
+            return sig, K, G
+
+        return stress_moduli
 
     # ------------------------------------------------------------------ verification
     has_strain_energy: ClassVar[bool] = False
@@ -369,6 +460,43 @@ class Material:
     def strain_energy(self, F: np.ndarray, a0: np.ndarray | None = None) -> float:
         """Strain energy per unit reference volume W(F) [J/m^3] (NumPy), for hyperelastic laws."""
         raise NotImplementedError(f"{type(self).__name__} has no strain energy")
+
+    # ------------------------------------------------------------------ calibration closed forms
+    def simple_shear_stress(self, gamma: np.ndarray) -> np.ndarray:
+        """Shear stress tau [Pa] of the incompressible law in simple shear F = I + gamma e1 (x) e2
+        (the calibration's closed-form forward model); laws without one raise ValueError."""
+        raise ValueError(f"no simple_shear closed form for material kind {self.kind or type(self).__name__!r}; "
+                         "use forward = 'driver'")
+
+    def nominal_stress(self, mode: str, strain: np.ndarray) -> np.ndarray:
+        """Instantaneous nominal stress P0 [Pa] at engineering ``strain`` in a stretch ``mode``
+        (``uniaxial``, ``equibiaxial``, ``pure_shear``): the incompressible closed form
+        ``nominal_stress_incompressible(mode, 1 + strain)`` of hyperelastic laws."""
+        f = getattr(self, "nominal_stress_incompressible", None)
+        if f is None:
+            raise TypeError(f"{type(self).__name__} has no incompressible closed form (nominal_stress_incompressible)")
+        return np.asarray(f(mode, 1.0 + np.asarray(strain, dtype=float)), dtype=float)
+
+    # ------------------------------------------------------------------ solver cards (tissuempm.calibration.export)
+    febio_uncoupled: ClassVar[bool] = True
+    """FEBio: the law is an uncoupled material (a Prony series wraps it in ``uncoupled viscoelastic``)."""
+    abaqus_bulk_relaxes: ClassVar[bool] = False
+    """Abaqus ``*VISCOELASTIC``: the bulk modulus relaxes with the shear Prony ratios (k_i = g_i)."""
+
+    def abaqus_keywords(self) -> list[str]:
+        """Abaqus keyword lines of the elastic law (after ``*DENSITY``), SI."""
+        raise ValueError(f"no Abaqus export for material kind {self.kind!r}")
+
+    def lsdyna_keywords(self, mid: int, rho: float, units: dict[str, float],
+                        g: tuple[float, ...], tau: tuple[float, ...]) -> list[str]:
+        """LS-DYNA keyword lines of the law with Prony ratios ``g`` and times ``tau`` [s] (empty when
+        elastic); ``rho`` already in ``units`` (the SI value of one unit of stress, density, time and
+        velocity: :data:`tissuempm.calibration.export.UNIT_SYSTEMS`)."""
+        raise ValueError(f"no LS-DYNA export for material kind {self.kind!r}")
+
+    def febio_parameters(self) -> tuple[str, dict[str, float]]:
+        """FEBio material ``type`` and its parameters (SI)."""
+        raise ValueError(f"no FEBio export for material kind {self.kind!r}")
 
 
 @functools.cache
@@ -434,8 +562,8 @@ def from_dict(data: dict[str, Any]) -> Material:
             default = f.default_factory()
             if isinstance(default, Material):
                 raise ParameterError(
-                    f"{cls.kind} needs {f.name!r}: the law it wraps, e.g. {f.name} = {{ kind = \"{default.kind}\", ... }} "
-                    f"or {f.name} = {{ library = \"...\" }} (without it the {type(default).__name__} example "
-                    "parameters would be used)"
+                    f"{cls.kind} needs {f.name!r}: the law it wraps, e.g. "
+                    f"{f.name} = {{ kind = \"{default.kind}\", ... }} or {f.name} = {{ library = \"...\" }} "
+                    f"(without it the {type(default).__name__} example parameters would be used)"
                 )
     return cls(**data)

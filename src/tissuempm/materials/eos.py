@@ -65,6 +65,7 @@ import numpy as np
 import warp as wp
 
 from tissuempm.materials.base import PRM_DENSITY, PRM_OFFSET, Material, ParameterError, StateVar, parameter
+from tissuempm.materials.cards import data_lines, fixed_card
 from tissuempm.materials.kinematics import kinematics
 from tissuempm.precision import WarpTypes
 
@@ -200,7 +201,8 @@ class IdealGas(_EquationOfState):
 
     def isentropic_pressure(self, J: np.ndarray) -> np.ndarray:
         """Gauge pressure along the isentrope from the reference state, (p0 + p_a) J^-gamma - p_a [Pa]."""
-        return (self.initial_pressure + self.ambient_pressure) * np.asarray(J, float) ** -self.gamma - self.ambient_pressure
+        p0, pa = self.initial_pressure, self.ambient_pressure
+        return (p0 + pa) * np.asarray(J, float) ** -self.gamma - pa
 
     def small_strain_moduli(self) -> tuple[float, float]:
         """Adiabatic bulk modulus gamma (p0 + p_a) and zero shear modulus [Pa]."""
@@ -259,6 +261,17 @@ class UsUp(_EquationOfState):
 
     def eos_parameters(self) -> list[float]:
         return [float(self.c0), float(self.s), float(self.gamma0)]
+
+    def abaqus_keywords(self) -> list[str]:
+        out = ["*EOS, TYPE=USUP", *data_lines([self.c0, self.s, self.gamma0])]
+        return out + (["*VISCOSITY", f"{self.viscosity:.8g},"] if self.viscosity else [])
+
+    def lsdyna_keywords(self, mid: int, rho: float, units: dict[str, float],
+                        g: tuple[float, ...], tau: tuple[float, ...]) -> list[str]:
+        """``*MAT_NULL`` (viscosity) with ``*EOS_GRUNEISEN`` (C = c0, S1 = s, GAMAO = Gamma0)."""
+        out = ["*MAT_NULL", fixed_card([mid, rho, 0.0, self.viscosity / (units["stress"] * units["time"])])]
+        eos = fixed_card([mid, self.c0 / units["velocity"], self.s, 0.0, 0.0, self.gamma0, 0.0, 0.0])
+        return out + ["*EOS_GRUNEISEN", eos, fixed_card([1.0])]
 
     def hugoniot_term(self, J: np.ndarray) -> np.ndarray:
         """f(J) = rho0 c0^2 eta (1 - Gamma0 eta/2) / (1 - s eta)^2, eta = 1 - J [Pa]."""

@@ -74,12 +74,37 @@ CONVENTIONS: tuple[str, ...] = ("seed", "uintah")
 
 
 class FailureMode(enum.IntEnum):
-    """Failure code stored in the ``failure`` state variable (bit 0 matrix, bit 1 fiber)."""
+    """Failure code stored in the ``failure`` state variable (bit 0 matrix, bit 1 fiber).
+
+    The one definition of the codes and their names: the laws' kernels (:data:`MATRIX`, ...), the
+    failure layer (which writes :attr:`BOTH`, complete failure), the solver's ``failure`` field
+    (:meth:`tissuempm.mpm.state.State.to_numpy`, :data:`NO_FAILURE_MODEL` where a law has none),
+    the history and the analysis (tallies, colours, the cavity of complete failure) use it.
+
+    >>> FailureMode.BOTH.label, FailureMode.labels()
+    ('both', ('intact', 'matrix', 'fiber', 'both'))
+    >>> FailureMode.MATRIX | FailureMode.FIBER == FailureMode.BOTH
+    True
+    """
 
     INTACT = 0
     MATRIX = 1
     FIBER = 2
     BOTH = 3
+
+    @property
+    def label(self) -> str:
+        """Name of the code in reports and legends (``intact``, ``matrix``, ``fiber``, ``both``)."""
+        return self.name.lower()
+
+    @classmethod
+    def labels(cls) -> tuple[str, ...]:
+        """Labels of the codes 0, 1, 2, 3, in code order."""
+        return tuple(mode.label for mode in cls)
+
+
+NO_FAILURE_MODEL = -1
+"""``failure`` code of a particle whose law has no failure variable (frames, history, analysis)."""
 
 
 INTACT = wp.constant(int(FailureMode.INTACT))
@@ -92,6 +117,13 @@ O_GAMMA = PRM_OFFSET + N_LAW
 O_EPS = O_GAMMA + 1
 O_CONV = O_GAMMA + 2
 """Convention code (0 seed, 1 uintah)."""
+
+
+TWO_SQRT3 = wp.constant(wp.float64(2.0 * math.sqrt(3.0)))
+"""2 sqrt(3) in float64 (an expression such as ``wp.float64(2.0 * math.sqrt(3.0))`` inside a Warp function
+is evaluated in float32 by Warp's code generator: 1.5e-8 relative error in the shear measure)."""
+PI_3 = wp.constant(wp.float64(math.pi / 3.0))
+"""pi / 3 in float64."""
 
 
 @wp.func
@@ -108,9 +140,27 @@ def eigen_angle(C: wp.mat33d):
     p2 = (wp.ddot(B, B)) / wp.float64(6.0)
     if p2 <= wp.float64(0.0):
         return q, wp.float64(0.0), wp.float64(0.0)
+    p, phi = dev_angle(B, p2)
+    return q, p, phi
+
+
+@wp.func
+def dev_angle(B: wp.mat33d, p2: wp.float64):
+    """``(p, phi)`` of :func:`eigen_angle` for the deviator ``B`` of a symmetric matrix, given
+    ``p2 = tr(B^2) / 6 > 0``; det(B / p) is formed as det(B) / p^3 (one division, not nine)."""
     p = wp.sqrt(p2)
-    r = wp.clamp(wp.determinant(B / p) * wp.float64(0.5), wp.float64(-1.0), wp.float64(1.0))
-    return q, p, wp.acos(r) / wp.float64(3.0)
+    r = wp.clamp(wp.determinant(B) / (p2 * p) * wp.float64(0.5), wp.float64(-1.0), wp.float64(1.0))
+    return p, wp.acos(r) / wp.float64(3.0)
+
+
+@wp.func
+def dev_spread(B: wp.mat33d, p2: wp.float64):
+    """Largest minus smallest eigenvalue of a symmetric matrix from its deviator ``B`` and
+    ``p2 = tr(B^2) / 6`` (:func:`eigen_spread` without forming the deviator again)."""
+    if p2 <= wp.float64(0.0):
+        return wp.float64(0.0)
+    p, phi = dev_angle(B, p2)
+    return TWO_SQRT3 * p * wp.sin(phi + PI_3)
 
 
 @wp.func
@@ -127,7 +177,7 @@ def eigen_spread(C: wp.mat33d):
     than ``wp.eig3`` (Jacobi sweeps), which only the eigenvectors would need.
     """
     q, p, phi = eigen_angle(C)
-    return wp.float64(2.0 * math.sqrt(3.0)) * p * wp.sin(phi + wp.float64(math.pi / 3.0))
+    return TWO_SQRT3 * p * wp.sin(phi + PI_3)
 
 
 @wp.func
@@ -165,7 +215,8 @@ class TwoSurfaceFailure(Material):
     kind = "two_surface_failure"
     anisotropic: ClassVar[bool] = True
     state_vars: ClassVar[tuple[StateVar, ...]] = (
-        StateVar("failure", 1, 0.0, "failure code: 0 intact, 1 matrix, 2 fiber, 3 both (FailureMode)"),
+        StateVar("failure", 1, 0.0,
+                 f"failure code: {', '.join(f'{m.value} {m.label}' for m in FailureMode)} (FailureMode)"),
         StateVar("max_shear_strain", 1, 0.0, "largest matrix failure measure reached [1] (convention's units)"),
         StateVar("max_fiber_strain", 1, 0.0, "largest fiber strain lam - 1 reached [1]"),
     )
@@ -311,6 +362,69 @@ class TwoSurfaceFailure(Material):
             return sig
 
         return stress
+
+    @classmethod
+    def _build_stress_moduli(cls, t: WarpTypes) -> Any:
+        """The stress of :meth:`_build_stress` and the moduli of :meth:`_build_moduli` at the state it
+        leaves, with the base's moduli from the invariants its stress parts have formed
+        (:meth:`Weiss._build_parts_moduli`; the same values as the two functions called apart). In
+        float64 the shear measure comes from the deviator of Bb = J^(-2/3) F F^T that the parts have
+        formed (F F^T and C = F^T F have the same eigenvalues: E1 - E3 = spread(Bb) / (2 J^(-2/3))),
+        equal to :meth:`_build_criteria`'s to round-off; float32 laws use the criteria's float64 C."""
+        parts_moduli = Weiss._build_parts_moduli(t)
+        criteria = cls._build_criteria(t)
+        s = t.scalar
+        mat33 = t.mat33
+        F64 = t.precision == "float64"
+
+        @wp.func
+        def stress_moduli(
+            F: t.mat33,
+            L: t.mat33,
+            a0: t.vec3,
+            prm: wp.array(dtype=s),
+            s_in: wp.array2d(dtype=s),
+            s_out: wp.array2d(dtype=s),
+            p: int,
+            dt: s,
+        ):
+            old = int(s_in[p, 0] + s(0.5))
+            if old == BOTH:  # completely failed: stress-free whatever F (even J <= 0), history frozen, no wave speed
+                for k in range(3):
+                    s_out[p, k] = s_in[p, k]
+                return mat33(), s(0.0), s(0.0)
+            sig_m, sig_f, sig_v, lam, Kv, G, Bd, dd, r = parts_moduli(F, a0, prm)
+            gam = s(0.0)
+            efib = s(0.0)
+            if wp.static(F64):  # the shear measure from the stress's dev Bb: E1 - E3 = spread(Bb) / (2 J^(-2/3))
+                E13 = wp.float64(0.5) * dev_spread(Bd, dd / wp.float64(6.0)) / (r * r)
+                if prm[O_CONV] < s(0.5):
+                    E13 = wp.float64(0.5) * E13
+                gam = E13
+                efib = lam - s(1.0)
+            else:  # float32 laws: the criteria's float64 eigen-solve of C = F^T F
+                gam, efib = criteria(F, lam, prm)
+            matrix = 0
+            if old == MATRIX or gam > prm[O_GAMMA]:
+                matrix = 1
+            fiber = 0
+            if old == FIBER or efib > prm[O_EPS]:
+                fiber = 1
+            code = matrix * MATRIX + fiber * FIBER
+            s_out[p, 0] = s(code)
+            s_out[p, 1] = wp.max(s_in[p, 1], gam)
+            s_out[p, 2] = wp.max(s_in[p, 2], efib)
+            sig = mat33()
+            if matrix == 0:
+                sig = sig + sig_m + sig_v
+            if fiber == 0:
+                sig = sig + sig_f
+            if code == BOTH:  # failed completely in this step
+                Kv = s(0.0)
+                G = s(0.0)
+            return sig, Kv, G
+
+        return stress_moduli
 
     analytic_tangent: ClassVar[bool] = True
     symmetric_tangent: ClassVar[bool | None] = True  # the Weiss tangent of the intact constituents

@@ -334,7 +334,7 @@ class Failure(Material):
             dt: s,
         ):
             o = int(prm[prm.shape[0] - 2])
-            sig = stress(F, L, a0, prm, s_in, s_out, p, dt)  # writes the failure state the update reaches at F
+            sig = stress(F, L, a0, prm, s_in, s_out, p, dt)  # noqa: F841 (writes the failure state the update reaches at F)
             if s_out[p, int(prm[o + B_OWN_SLOT])] > s(0.5):
                 if prm[o + B_RESIDUAL] < s(0.5):
                     return M66()

@@ -67,10 +67,12 @@ from tissuempm.materials.base import (
     PRM_G_WAVE,
     PRM_K_WAVE,
     PRM_OFFSET,
+    Fit,
     ParameterError,
     copy_state,
     parameter,
 )
+from tissuempm.materials.cards import abaqus_D1, data_lines, fixed_card, poisson_ratio
 from tissuempm.materials.invariant_hyperelastic import (
     LAW_OFFSET,
     UncoupledHyperelastic,
@@ -97,11 +99,17 @@ class HGO(UncoupledHyperelastic):
 
     kind = "hgo"
     anisotropic: ClassVar[bool] = True
+    fit_terms = (1, 1)
+    fit_rank = 6
 
-    C10: float = parameter("Pa", default=1.0e3, gt=0.0, doc="matrix coefficient, C10 = c/2, G0 = 2 C10")
-    k1: float = parameter("Pa", default=1.0e4, ge=0.0, doc="fiber stress parameter")
-    k2: float = parameter("1", default=1.0, gt=0.0, doc="fiber exponential stiffening parameter")
-    kappa: float = parameter("1", default=0.0, ge=0.0, le=1.0 / 3.0, doc="fiber dispersion, 0 aligned to 1/3 isotropic")
+    C10: float = parameter("Pa", default=1.0e3, gt=0.0, doc="matrix coefficient, C10 = c/2, G0 = 2 C10",
+                           fit=Fit(1e-6, 50.0, scaled=True, modulus=True))
+    k1: float = parameter("Pa", default=1.0e4, ge=0.0, doc="fiber stress parameter",
+                          fit=Fit(1e-3, 1e4, scaled=True, log=True))
+    k2: float = parameter("1", default=1.0, gt=0.0, doc="fiber exponential stiffening parameter",
+                          fit=Fit(1e-6, 20.0, start=1.0))
+    kappa: float = parameter("1", default=0.0, ge=0.0, le=1.0 / 3.0, doc="fiber dispersion, 0 aligned to 1/3 isotropic",
+                             fit=Fit(0.0, 1.0 / 3.0, start=0.1))
     fiber_kinematics: FiberKinematics = "isochoric"
     analytic_tangent: ClassVar[bool] = True
 
@@ -175,6 +183,42 @@ class HGO(UncoupledHyperelastic):
         h = self.kappa * (Bb if iso else F @ F.T) + (1.0 - 3.0 * self.kappa) * np.outer(b, b)
         tau = 2.0 * self.C10 * dev(Bb) + 2.0 * dpsi * (dev(h) if iso else h)
         return tau / J + self.pressure_term(J) * np.eye(3)
+
+    def simple_shear_stress(self, gamma: np.ndarray) -> np.ndarray:
+        """tau = 2 gamma W1 with the fiber along the shear direction e1 (the convention of every HGO closed
+        form here, and the driver's default fiber): F a0 = a0, so I4 = 1 and the fiber strain is
+        E = kappa (I1 - 3) = kappa gamma^2; a0 (x) a0 has no 12 component (Gasser, Ogden & Holzapfel 2006).
+        Other fiber directions need the driver."""
+        g = np.asarray(gamma, dtype=float)
+        W1, _ = self.iso_derivatives(3.0 + g * g, np.ones_like(g))
+        return 2.0 * g * W1
+
+    # ------------------------------------------------------------------ cards (tissuempm.calibration.export)
+    def check_card_form(self, solver: str) -> None:
+        """Refuse ``fiber_kinematics = "full"``: Abaqus, LS-DYNA (MAT_295) and FEBio all use the isochoric
+        fiber invariants, so the card would describe a different law."""
+        if self.fiber_kinematics != "isochoric":
+            raise ValueError(
+                f"hgo.fiber_kinematics = {self.fiber_kinematics!r}: {solver}'s HGO uses the isochoric fiber "
+                "invariants (fiber_kinematics = 'isochoric'); a 'full' HGO has no equivalent card and is not exported"
+            )
+
+    def abaqus_keywords(self) -> list[str]:
+        self.check_card_form("Abaqus")
+        values = [self.C10, abaqus_D1(self), self.k1, self.k2, self.kappa]
+        return ["*ANISOTROPIC HYPERELASTIC, HOLZAPFEL, LOCAL DIRECTIONS=1", *data_lines(values)]
+
+    def lsdyna_keywords(self, mid: int, rho: float, units: dict[str, float],
+                        g: tuple[float, ...], tau: tuple[float, ...]) -> list[str]:
+        self.check_card_form("LS-DYNA")
+        if g:
+            raise ValueError("no LS-DYNA export for a viscoelastic HGO (MAT_295 is written without Prony terms)")
+        return mat295_cards(self, mid, rho, units["stress"])
+
+    def febio_parameters(self) -> tuple[str, dict[str, float]]:
+        self.check_card_form("FEBio")
+        params = {"c": 2.0 * self.C10, "k1": self.k1, "k2": self.k2, "kappa": self.kappa, "gamma": 0.0, "k": self.K}
+        return "Holzapfel-Gasser-Ogden", params
 
     def nominal_stress_incompressible(self, mode: str, stretch: np.ndarray) -> np.ndarray:
         """Incompressible nominal stress P [Pa] with the fiber along the loading axis e1 (module docstring)."""
@@ -303,3 +347,52 @@ class HGO(UncoupledHyperelastic):
             return prm[PRM_K_WAVE], G
 
         return moduli
+
+
+def mat295_cards(el: HGO, mid: int, rho: float, stress: float) -> list[str]:
+    """``*MAT_ANISOTROPIC_HYPERELASTIC`` (MAT_295) cards of an HGO law, one fiber family along the a-axis.
+
+    Card layout as in the LS-DYNA keyword manual (Vol. II, MAT_295) and Ansys' ``pydyna`` keyword
+    classes: ``MID RHO AOPT`` / ``ISO ITYPE BETA NU`` / isotropic parameters / ``ANISO ATYPE
+    INTYPE NF`` / per fiber ``THETA A B`` and ``FTYPE FCID K1 K2`` / the AOPT = 2 axes
+    ``XP YP ZP A1 A2 A3 MACF`` and ``V1 V2 V3 D1 D2 D3 BETA REF``. Mapping:
+
+    * matrix C10 (I1b - 3): isotropic module ITYPE = -2 (Yeoh, W = sum c_i (I1b - 3)^i) with
+      c1 = C10, c2 = c3 = 0. Yeoh's c_i carry no convention factor, unlike Ogden's mu_i;
+    * NU = (3K - 2 G0)/(6K + 2 G0), G0 = 2 C10: LS-DYNA derives the bulk modulus from NU, so K at
+      J = 1 is reproduced; BETA (the volumetric-function coefficient) is 0. The volumetric function
+      behind BETA could not be checked against the manual text here, so U(J) away from J = 1 may
+      differ from tissuempm's ``volumetric`` form (negligible for nearly incompressible tissue);
+    * fiber family: ATYPE = -1 (generalized structure tensor H = A I + B a0 (x) a0, Holzapfel et al.),
+      INTYPE = 0, NF = 1, THETA = 0 (along the material a-axis), A = kappa, B = 1 - 3 kappa, so that
+      H : C - 1 = kappa (I1 - 3) + (1 - 3 kappa)(I4 - 1) is the HGO fiber strain E; FTYPE = 1 (HGO
+      fiber, W = k1/(2 k2) (exp(k2 <E>^2) - 1)), FCID = 0, K1 = k1, K2 = k2;
+    * AOPT = 2 with a = e1, d = e2: the fibers run along global x. Replace these two cards (or
+      AOPT) with the part's own fiber directions.
+
+    Unverified here (no manual text at hand): ITYPE = -2 is the only Yeoh code listed; for ATYPE the
+    keyword documentation lists "EQ.-1/+1" with the sign choosing the compressible or the nearly
+    incompressible formulation, and -1 follows the published decks that pair it with a negative
+    ITYPE. Check both signs and BETA against the manual of the LS-DYNA version in use. MAT_295
+    is written without Prony terms, so a viscoelastic HGO is not exported.
+    """
+    G0 = 2.0 * el.C10
+    return [
+        "*MAT_ANISOTROPIC_HYPERELASTIC",
+        "$      MID       RHO      AOPT",
+        fixed_card([mid, rho, 2.0]),
+        "$    TITLE     ITYPE      BETA        NU",
+        fixed_card(["ISO", -2, 0.0, poisson_ratio(el.K, G0)]),
+        "$       C1        C2        C3",
+        fixed_card([el.C10 / stress, 0.0, 0.0]),
+        "$    TITLE     ATYPE    INTYPE        NF",
+        fixed_card(["ANISO", -1, 0, 1]),
+        "$    THETA         A         B",
+        fixed_card([0.0, el.kappa, 1.0 - 3.0 * el.kappa]),
+        "$    FTYPE      FCID        K1        K2",
+        fixed_card([1, 0, el.k1 / stress, el.k2]),
+        "$       XP        YP        ZP        A1        A2        A3      MACF",
+        fixed_card([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1]),
+        "$       V1        V2        V3        D1        D2        D3      BETA       REF",
+        fixed_card([0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]),
+    ]

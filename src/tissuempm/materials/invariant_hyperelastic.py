@@ -68,6 +68,17 @@ def isochoric_invariants(F: np.ndarray) -> tuple[float, float, float]:
     return I1, I2, J
 
 
+def shear_stretches(gamma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """In-plane principal stretches (lam_1, lam_2) of simple shear, lam_1,2 = sqrt(1 + gamma^2/4) +- gamma/2.
+
+    They are the square roots of the eigenvalues of the in-plane block [[1 + gamma^2, gamma], [gamma, 1]]
+    of B = F F^T (lam_1 lam_2 = 1, lam_1 - lam_2 = gamma, lam_3 = 1).
+    """
+    g = np.asarray(gamma, dtype=float)
+    root = np.sqrt(1.0 + 0.25 * g * g)
+    return root + 0.5 * g, root - 0.5 * g
+
+
 def incompressible_invariants(mode: str, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Invariants (I1, I2) of incompressible uniaxial / equibiaxial / pure-shear deformation."""
     lam = np.asarray(lam, dtype=float)
@@ -160,6 +171,13 @@ class InvariantHyperelastic(UncoupledHyperelastic):
         W1, W2 = (float(w) for w in self.iso_derivatives(np.array(I1), np.array(I2)))
         A = (W1 + I1 * W2) * Bb - W2 * Bb @ Bb
         return 2.0 / J * (A - np.trace(A) / 3.0 * np.eye(3)) + self.pressure_term(J) * np.eye(3)
+
+    def simple_shear_stress(self, gamma: np.ndarray) -> np.ndarray:
+        """tau = 2 gamma (W1 + W2) at I1b = I2b = 3 + gamma^2 (Rivlin 1948; incompressible simple shear)."""
+        g = np.asarray(gamma, dtype=float)
+        inv = 3.0 + g * g
+        W1, W2 = self.iso_derivatives(inv, inv)
+        return 2.0 * g * (W1 + W2)
 
     def nominal_stress_incompressible(self, mode: str, stretch: np.ndarray) -> np.ndarray:
         """Incompressible nominal stress P [Pa] along the stretch for ``mode`` (module docstring)."""

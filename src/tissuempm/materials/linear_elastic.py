@@ -77,7 +77,8 @@ from typing import Any, ClassVar
 import numpy as np
 import warp as wp
 
-from tissuempm.materials.base import PRM_OFFSET, Material, ParameterError, copy_state, parameter
+from tissuempm.materials.base import PRM_OFFSET, Fit, Material, ParameterError, copy_state, parameter
+from tissuempm.materials.cards import data_lines, fixed_card
 from tissuempm.precision import WarpTypes
 
 SYMMETRY_RTOL = 0.01
@@ -207,8 +208,13 @@ class LinearElastic(_SaintVenantKirchhoff):
     """
 
     kind = "linear_elastic"
+    fit_terms = (1, 1)
+    fit_rank = 7
+    febio_uncoupled = False  # FEBio 'isotropic elastic' is coupled: a Prony series wraps it in 'viscoelastic'
+    abaqus_bulk_relaxes = True  # the linear viscoelastic model (Brewick et al. 2017 eq. 11): E(t) relaxes, nu fixed
 
-    E: float = parameter("Pa", default=1.0e9, gt=0.0, doc="Young's modulus")
+    E: float = parameter("Pa", default=1.0e9, gt=0.0, doc="Young's modulus",
+                         fit=Fit(0.1, 1000.0, scaled=True, log=True))
     nu: float = parameter("1", default=0.3, gt=-1.0, lt=0.5, doc="Poisson's ratio")
 
     @classmethod
@@ -233,6 +239,38 @@ class LinearElastic(_SaintVenantKirchhoff):
         """Uniaxial stress, small strain: (sigma = E eps [Pa], lateral strain = -nu eps)."""
         eps = np.asarray(strain, dtype=float)
         return self.E * eps, -self.nu * eps
+
+    def simple_shear_stress(self, gamma: np.ndarray) -> np.ndarray:
+        """Small strain: tau = G gamma, G = E / (2 (1 + nu))."""
+        return self.E / (2.0 * (1.0 + self.nu)) * np.asarray(gamma, dtype=float)
+
+    def nominal_stress(self, mode: str, strain: np.ndarray) -> np.ndarray:
+        """Small-strain uniaxial stress E strain (the linear viscoelastic calibration of Brewick et al. 2017
+        eq. 11); other stretch modes raise ValueError."""
+        if mode != "uniaxial":
+            raise ValueError(f"a linear elastic core supports only uniaxial and simple_shear data, not {mode!r}")
+        return self.E * np.asarray(strain, dtype=float)
+
+    # ------------------------------------------------------------------ cards (tissuempm.calibration.export)
+    def abaqus_keywords(self) -> list[str]:
+        return ["*ELASTIC", *data_lines([self.E, self.nu])]
+
+    def lsdyna_keywords(self, mid: int, rho: float, units: dict[str, float],
+                        g: tuple[float, ...], tau: tuple[float, ...]) -> list[str]:
+        """``*MAT_ELASTIC``, or with Prony terms ``*MAT_GENERAL_VISCOELASTIC`` (bulk modulus K, long-term
+        shear modulus g_inf G0, terms G_i = g_i G0, BETA_i = 1 / tau_i)."""
+        st = units["stress"]
+        if not g:
+            return ["*MAT_ELASTIC", fixed_card([mid, rho, self.E / st, self.nu])]
+        K = self.E / (3 * (1 - 2 * self.nu)) / st
+        G0 = self.E / (2 * (1 + self.nu))
+        out = ["*MAT_GENERAL_VISCOELASTIC", fixed_card([mid, rho, K, None, None, None, None, None])]
+        out.append(fixed_card([(1.0 - sum(g)) * G0 / st, 0.0]))
+        out += [fixed_card([gi * G0 / st, units["time"] / ti]) for gi, ti in zip(g, tau)]
+        return out
+
+    def febio_parameters(self) -> tuple[str, dict[str, float]]:
+        return "isotropic elastic", {"E": self.E, "v": self.nu}
 
     def uniaxial_nominal_stress(self, stretch: np.ndarray) -> np.ndarray:
         """Exact finite-strain uniaxial nominal stress P = E lam (lam^2 - 1)/2 [Pa] (module docstring)."""

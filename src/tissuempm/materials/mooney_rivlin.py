@@ -23,7 +23,8 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-from tissuempm.materials.base import ParameterError, parameter
+from tissuempm.materials.base import Fit, ParameterError, parameter
+from tissuempm.materials.cards import abaqus_D1, data_lines
 from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
 from tissuempm.precision import WarpTypes
 
@@ -37,8 +38,19 @@ class MooneyRivlin(InvariantHyperelastic):
 
     kind = "mooney_rivlin"
 
-    C10: float = parameter("Pa", default=1.0e3, doc="coefficient of (I1b - 3)")
-    C01: float = parameter("Pa", default=0.0, doc="coefficient of (I2b - 3)")
+    fit_terms = (1, 1)
+    fit_rank = 1
+
+    C10: float = parameter("Pa", default=1.0e3, doc="coefficient of (I1b - 3)",
+                           fit=Fit(-50.0, 50.0, scaled=True, modulus=True))
+    C01: float = parameter("Pa", default=0.0, doc="coefficient of (I2b - 3)",
+                           fit=Fit(-50.0, 50.0, scaled=True, modulus=True))
+
+    def abaqus_keywords(self) -> list[str]:
+        return ["*HYPERELASTIC, POLYNOMIAL, N=1", *data_lines([self.C10, self.C01, abaqus_D1(self)])]
+
+    def febio_parameters(self) -> tuple[str, dict[str, float]]:
+        return "Mooney-Rivlin", {"c1": self.C10, "c2": self.C01, "k": self.K}
 
     @classmethod
     def example(cls) -> "MooneyRivlin":

@@ -21,7 +21,8 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-from tissuempm.materials.base import parameter
+from tissuempm.materials.base import Fit, parameter
+from tissuempm.materials.cards import abaqus_D1, data_lines
 from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
 from tissuempm.precision import WarpTypes
 
@@ -31,8 +32,17 @@ class NeoHookean(InvariantHyperelastic):
     """Neo-Hookean law W = C10 (I1b - 3) + U(J)."""
 
     kind = "neo_hookean"
+    fit_terms = (1, 1)
+    fit_rank = 0
 
-    C10: float = parameter("Pa", default=1.0e3, gt=0.0, doc="shear coefficient, G0 = 2 C10")
+    C10: float = parameter("Pa", default=1.0e3, gt=0.0, doc="shear coefficient, G0 = 2 C10",
+                           fit=Fit(1e-6, 50.0, scaled=True, modulus=True))
+
+    def abaqus_keywords(self) -> list[str]:
+        return ["*HYPERELASTIC, REDUCED POLYNOMIAL, N=1", *data_lines([self.C10, abaqus_D1(self)])]
+
+    def febio_parameters(self) -> tuple[str, dict[str, float]]:
+        return "Mooney-Rivlin", {"c1": self.C10, "c2": 0.0, "k": self.K}
 
     def iso_energy(self, I1: np.ndarray, I2: np.ndarray) -> np.ndarray:
         return self.C10 * (I1 - 3.0)

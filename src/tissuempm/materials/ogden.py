@@ -45,10 +45,12 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-from tissuempm.materials.base import PRM_OFFSET, ParameterError, copy_state, parameter
+from tissuempm.materials.base import PRM_OFFSET, Fit, ParameterError, copy_state, parameter
+from tissuempm.materials.cards import abaqus_D1, data_lines, fixed_card, poisson_ratio
 from tissuempm.materials.invariant_hyperelastic import (
     LAW_OFFSET,
     UncoupledHyperelastic,
+    shear_stretches,
 )
 from tissuempm.materials.kinematics import kinematics
 from tissuempm.precision import WarpTypes
@@ -69,8 +71,12 @@ class Ogden(UncoupledHyperelastic):
     """
 
     kind = "ogden"
-    mu: tuple[float, ...] = parameter("Pa", default=(2.0e3,), doc="moduli mu_i (Abaqus convention), G0 = sum mu_i")
-    alpha: tuple[float, ...] = parameter("1", default=(2.0,), doc="exponents alpha_i (non-zero)")
+    fit_terms = (2, MAX_TERMS)
+    fit_rank = 5
+    mu: tuple[float, ...] = parameter("Pa", default=(2.0e3,), doc="moduli mu_i (Abaqus convention), G0 = sum mu_i",
+                                      fit=Fit(-50.0, 50.0, scaled=True, modulus=True))
+    alpha: tuple[float, ...] = parameter("1", default=(2.0,), doc="exponents alpha_i (non-zero)",
+                                         fit=Fit(-20.0, 20.0, start=(2.0, -2.0) * (MAX_TERMS // 2)))
 
     @classmethod
     def example(cls) -> "Ogden":
@@ -114,6 +120,38 @@ class Ogden(UncoupledHyperelastic):
         J = float(np.linalg.det(F))
         lb2 = np.linalg.eigvalsh(J ** (-2.0 / 3.0) * F @ F.T)
         return float(self.principal_energy(np.sqrt(lb2)) + self.volumetric_energy(J))
+
+    def simple_shear_stress(self, gamma: np.ndarray) -> np.ndarray:
+        """tau = (beta(lam_1) - beta(lam_2)) / (lam_1 + lam_2), lam_1,2 the in-plane principal stretches
+        (:func:`~tissuempm.materials.invariant_hyperelastic.shear_stretches`; Ogden 1984 sec. 5.2: the
+        Eulerian axis of lam_1 makes the angle theta with e1, sin 2 theta = 2 / (lam_1 + lam_2))."""
+        lam1, lam2 = shear_stretches(np.asarray(gamma, dtype=float))
+        return (self.beta(lam1) - self.beta(lam2)) / (lam1 + lam2)
+
+    # ------------------------------------------------------------------ cards (tissuempm.calibration.export)
+    def abaqus_keywords(self) -> list[str]:
+        n = len(self.mu)
+        values = [v for m, a in zip(self.mu, self.alpha) for v in (m, a)] + [abaqus_D1(self)] + [0.0] * (n - 1)
+        return [f"*HYPERELASTIC, OGDEN, N={n}", *data_lines(values)]
+
+    def lsdyna_keywords(self, mid: int, rho: float, units: dict[str, float],
+                        g: tuple[float, ...], tau: tuple[float, ...]) -> list[str]:
+        """``*MAT_OGDEN_RUBBER``: Ogden's original mu'_i = 2 mu_i / alpha_i on the long-term law (g_inf),
+        Prony terms G_i = g_i G0, BETA_i = 1 / tau_i."""
+        G0 = sum(self.mu)
+        g_inf = 1.0 - sum(g)
+        mu_dyna = [2.0 * m / a * g_inf / units["stress"] for m, a in zip(self.mu, self.alpha)]
+        out = ["*MAT_OGDEN_RUBBER", fixed_card([mid, rho, poisson_ratio(self.K, G0), 0, len(g), None, None, None])]
+        out.append(fixed_card(mu_dyna + [0.0] * (8 - len(mu_dyna))))
+        out.append(fixed_card(list(self.alpha) + [0.0] * (8 - len(self.alpha))))
+        out += [fixed_card([gi * G0 / units["stress"], units["time"] / ti]) for gi, ti in zip(g, tau)]
+        return out
+
+    def febio_parameters(self) -> tuple[str, dict[str, float]]:
+        params: dict[str, float] = {}
+        for i, (m, a) in enumerate(zip(self.mu, self.alpha), start=1):
+            params[f"c{i}"], params[f"m{i}"] = 2.0 * m, a
+        return "Ogden", {**params, "k": self.K}
 
     def nominal_stress_incompressible(self, mode: str, stretch: np.ndarray) -> np.ndarray:
         """Incompressible nominal stress P = (beta(lam) - beta(lam_3))/lam [Pa] (module docstring)."""

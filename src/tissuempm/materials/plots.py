@@ -17,7 +17,7 @@ from tissuempm.materials.drivers import stress_strain
 
 PLOT_RATES: tuple[float, ...] = (1.0e-2, 1.0, 1.0e2, 1.0e3)
 """Engineering strain rates [1/s] drawn for rate-dependent laws."""
-STYLE: dict[str, Any] = {
+STYLE: dict[Any, Any] = {  # rcParams names (matplotlib types the keys as a Literal)
     "font.size": 10, "axes.titlesize": 10, "axes.labelsize": 10, "legend.fontsize": 9,
     "xtick.labelsize": 9, "ytick.labelsize": 9, "figure.titlesize": 11,
     "axes.formatter.useoffset": False, "axes.grid": True, "grid.color": "0.9", "grid.linewidth": 0.5,

@@ -33,7 +33,8 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-from tissuempm.materials.base import ParameterError, parameter
+from tissuempm.materials.base import Fit, ParameterError, parameter
+from tissuempm.materials.cards import abaqus_D1, data_lines
 from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
 from tissuempm.precision import WarpTypes
 
@@ -49,10 +50,20 @@ class ReducedPolynomial(InvariantHyperelastic):
     """
 
     kind = "reduced_polynomial"
+    fit_terms = (2, MAX_REDUCED_ORDER)
+    fit_rank = 3
 
     C: tuple[float, ...] = parameter(
-        "Pa", default=(1.0e3,), doc="coefficients (C10, C20, ..., CN0) of (I1b - 3)^i, G0 = 2 C10"
+        "Pa", default=(1.0e3,), doc="coefficients (C10, C20, ..., CN0) of (I1b - 3)^i, G0 = 2 C10",
+        fit=Fit(-50.0, 50.0, scaled=True, modulus=True, start=(0.5,) + (0.0,) * (MAX_REDUCED_ORDER - 1)),  # as Yeoh's
     )
+
+    def abaqus_keywords(self) -> list[str]:
+        n = len(self.C)
+        return [f"*HYPERELASTIC, REDUCED POLYNOMIAL, N={n}", *data_lines([*self.C, abaqus_D1(self)] + [0.0] * (n - 1))]
+
+    def febio_parameters(self) -> tuple[str, dict[str, float]]:
+        return "Yeoh", {**{f"c{i}": c for i, c in enumerate(self.C, start=1)}, "k": self.K}  # FEYeoh: i <= 6
 
     @classmethod
     def example(cls) -> "ReducedPolynomial":
@@ -125,12 +136,29 @@ class Polynomial(InvariantHyperelastic):
     """
 
     kind = "polynomial"
+    fit_terms = (2, 2)
+    fit_rank = 4
+    febio_uncoupled = False  # FEBio's FEPolynomialHyperElastic is a coupled class
 
-    C10: float = parameter("Pa", default=1.0e3, doc="coefficient of (I1b - 3)")
-    C01: float = parameter("Pa", default=0.0, doc="coefficient of (I2b - 3)")
-    C20: float = parameter("Pa", default=0.0, doc="coefficient of (I1b - 3)^2")
-    C11: float = parameter("Pa", default=0.0, doc="coefficient of (I1b - 3)(I2b - 3)")
-    C02: float = parameter("Pa", default=0.0, doc="coefficient of (I2b - 3)^2")
+    C10: float = parameter("Pa", default=1.0e3, doc="coefficient of (I1b - 3)",
+                           fit=Fit(-50.0, 50.0, scaled=True, modulus=True))
+    C01: float = parameter("Pa", default=0.0, doc="coefficient of (I2b - 3)",
+                           fit=Fit(-50.0, 50.0, scaled=True, modulus=True))
+    C20: float = parameter("Pa", default=0.0, doc="coefficient of (I1b - 3)^2",
+                           fit=Fit(-50.0, 50.0, scaled=True, modulus=True, order=2))
+    C11: float = parameter("Pa", default=0.0, doc="coefficient of (I1b - 3)(I2b - 3)",
+                           fit=Fit(-50.0, 50.0, scaled=True, modulus=True, order=2))
+    C02: float = parameter("Pa", default=0.0, doc="coefficient of (I2b - 3)^2",
+                           fit=Fit(-50.0, 50.0, scaled=True, modulus=True, order=2))
+
+    def abaqus_keywords(self) -> list[str]:
+        values = [self.C10, self.C01, self.C20, self.C11, self.C02, abaqus_D1(self), 0.0]
+        return ["*HYPERELASTIC, POLYNOMIAL, N=2", *data_lines(values)]
+
+    def febio_parameters(self) -> tuple[str, dict[str, float]]:
+        """FEBio ``polynomial``: isochoric invariants and U = D1 (J - 1)^2, so D1 = K/2 (not Abaqus' 2/K)."""
+        c = {"c10": self.C10, "c01": self.C01, "c20": self.C20, "c11": self.C11, "c02": self.C02}
+        return "polynomial", {**c, "D1": 0.5 * self.K}
 
     @classmethod
     def example(cls) -> "Polynomial":

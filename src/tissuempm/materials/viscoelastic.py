@@ -72,8 +72,8 @@ last slot, the index where the Prony block starts.
 Because the Warp stress function is built per class, each elastic class gets its
 own specialised subclass (``Viscoelastic[NeoHookean]``, cached); a new instance
 takes that class at the end of ``__post_init__``, so every construction path
-(``from_dict``, ``replace``, ``dataclasses.replace``) ends with the right class; ``isinstance(m, Viscoelastic)`` holds and ``kind`` stays
-``"viscoelastic"``.
+(``from_dict``, ``replace``, ``dataclasses.replace``) ends with the right class;
+``isinstance(m, Viscoelastic)`` holds and ``kind`` stays ``"viscoelastic"``.
 
 Closed forms (tests)
 --------------------
@@ -100,8 +100,9 @@ Example
 
 import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable, ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 import warp as wp
@@ -152,7 +153,7 @@ def _hereditary(
     out = f0(t)
     pts = [b for b in breakpoints if 0.0 < b < t] or None
     for gj, tj in zip(g, tau):
-        val, _ = integrate.quad(lambda s: math.exp(-(t - s) / tj) * f0(s), 0.0, t, points=pts, limit=400,
+        val, _ = integrate.quad(lambda s: math.exp(-(t - s) / tj) * f0(s), 0.0, t, points=pts, limit=400,  # noqa: B023
                                 epsabs=0.0, epsrel=1e-12)
         out -= gj / tj * val
     return out
@@ -284,7 +285,8 @@ class Viscoelastic(Material):
     def state_vars(self) -> tuple[StateVar, ...]:  # type: ignore[override]
         n = self.n_terms
         return tuple(self.elastic.state_vars) + (
-            StateVar("S0", 6, 0.0, "isochoric 2nd PK stress of the elastic law at the last step [Pa] (xx yy zz yz xz xy)"),
+            StateVar("S0", 6, 0.0,
+                     "isochoric 2nd PK stress of the elastic law at the last step [Pa] (xx yy zz yz xz xy)"),
             StateVar("pi0", 1, 0.0, "Kirchhoff mean stress of the elastic law at the last step [Pa]"),
             StateVar("H", 6 * n, 0.0, "Prony history H_j (reference configuration) [Pa], 6 per term"),
             StateVar("h", n, 0.0, "bulk Prony history h_j [Pa]"),

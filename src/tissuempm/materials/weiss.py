@@ -71,7 +71,10 @@ so that for the full form c_fiber = (1/J)(lam T' - 2 T) a (x) a (x) a (x) a.
 Wave speed (seed eq. 9, c = sqrt((K + 4G/3) / rho)): :meth:`Weiss._build_moduli`
 returns instantaneous moduli that bound the acoustic tensor including fiber
 stiffening (see its docstring); :meth:`Weiss.wave_moduli` gives the value at
-the largest stretch of the toe/linear kink (header, for initial time steps).
+the largest stretch of the toe/linear kink (header, for initial time steps). The
+explicit stress pass takes the stress and these moduli from one call
+(:meth:`Weiss._build_parts_moduli`, ``Material.stress_moduli_function``): the
+invariants, J^(-1/3), ln J and the fiber law are evaluated once for both.
 
 References
 ----------
@@ -104,7 +107,6 @@ from tissuempm.materials.invariant_hyperelastic import (
 from tissuempm.materials.kinematics import FIBER_KINEMATICS, FiberKinematics, kinematics
 from tissuempm.materials.tangent import rate_tangent
 from tissuempm.precision import WarpTypes
-
 
 # Packed layout of the law's parameters (absolute indices into ``pack()``).
 O_FORM = PRM_OFFSET
@@ -158,7 +160,8 @@ class Weiss(Material):
             )
         if self.C4 * (self.lam_star - 1.0) > 600.0:
             raise ParameterError(
-                f"{name}: C4 (lam_star - 1) = {self.C4 * (self.lam_star - 1.0):g} overflows exp(); valid range is <= 600"
+                f"{name}: C4 (lam_star - 1) = {self.C4 * (self.lam_star - 1.0):g} overflows exp(); "
+                "valid range is <= 600"
             )
 
     # ------------------------------------------------------------------ fiber law (NumPy)
@@ -361,6 +364,82 @@ class Weiss(Material):
             return sig_m, sig_f, sig_v, lam
 
         return parts
+
+    @classmethod
+    def _build_parts_moduli(cls, t: WarpTypes) -> Any:
+        """``parts_moduli(F, a0, prm) -> (sigma_matrix, sigma_fiber, sigma_vol, lam, K, G, dev Bb,
+        dev Bb : dev Bb, J^(-1/3))``: the parts of :meth:`_build_parts` and the moduli of
+        :meth:`_build_moduli` at the same ``F``, from one evaluation of J, Bb, J^(-1/3), ln J and the
+        fiber law (the same expressions, so the same values as the two functions called apart). The
+        explicit stress pass needs both (the stress, and the wave speed of the next time step); the
+        deviator of Bb serves the failure layer's shear measure (C = F^T F and F F^T = J^(2/3) Bb
+        have the same eigenvalues)."""
+        k = kinematics(t)
+        fiber = cls._build_fiber(t)
+        s = t.scalar
+
+        @wp.func
+        def parts_moduli(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s)):
+            J = wp.determinant(F)
+            Bb, r = k.isochoric_b_root(F, J)
+            eye = wp.identity(n=3, dtype=s)
+            sig_m = k.invariant_cauchy(J, Bb, prm[O_C1], prm[O_C2])
+            I1 = wp.trace(Bb)
+            Bd = k.dev(Bb)
+            dd = wp.ddot(Bd, Bd)
+            bmax = I1 / s(3.0) + wp.sqrt(s(2.0) / s(3.0) * dd)
+            Km = prm[O_K]
+            U1 = s(0.0)  # volumetric U'(J) and the bulk term of the moduli
+            Kv = s(0.0)
+            if prm[O_FORM] > s(0.5):  # "log" (ln J once for both)
+                lj = wp.log(J)
+                U1 = Km * lj / J
+                Kv = Km * (s(1.0) + s(2.0) * wp.abs(lj)) / J
+            else:  # "abaqus"
+                U1 = Km * (J - s(1.0))
+                Kv = Km * wp.max(s(2.0) * J - s(1.0), s(1.0) / J)
+            sig_v = U1 * eye
+            x = F * wp.normalize(a0)
+            lam = wp.length(x)
+            a = x / lam
+            aa = wp.outer(a, a)
+            sig_f = aa
+            lf = lam
+            if prm[O_KIN] < s(0.5):
+                lf = lam * r
+            T, dT = fiber(lf, prm)
+            if prm[O_KIN] < s(0.5):
+                sig_f = (T / J) * k.dev(aa)
+            else:
+                sig_f = (T / J) * aa
+            G = s(2.0) * (prm[O_C1] + prm[O_C2] * I1) * bmax / J
+            G = G + s(0.75) * (lf * dT + s(2.0) * T) / J
+            return sig_m, sig_f, sig_v, lam, Kv, G, Bd, dd, r
+
+        return parts_moduli
+
+    @classmethod
+    def _build_stress_moduli(cls, t: WarpTypes) -> Any:
+        parts_moduli = cls._build_parts_moduli(t)
+        copy = copy_state(t)
+        s = t.scalar
+
+        @wp.func
+        def stress_moduli(
+            F: t.mat33,
+            L: t.mat33,
+            a0: t.vec3,
+            prm: wp.array(dtype=s),
+            s_in: wp.array2d(dtype=s),
+            s_out: wp.array2d(dtype=s),
+            p: int,
+            dt: s,
+        ):
+            sig_m, sig_f, sig_v, lam, Kv, G, Bd, dd, r = parts_moduli(F, a0, prm)
+            copy(s_in, s_out, p, 0, s_in.shape[1])
+            return sig_m + sig_f + sig_v, Kv, G
+
+        return stress_moduli
 
     @classmethod
     def _build_stress(cls, t: WarpTypes) -> Any:

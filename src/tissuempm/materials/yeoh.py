@@ -23,7 +23,8 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-from tissuempm.materials.base import parameter
+from tissuempm.materials.base import Fit, parameter
+from tissuempm.materials.cards import abaqus_D1, data_lines
 from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
 from tissuempm.precision import WarpTypes
 
@@ -33,10 +34,24 @@ class Yeoh(InvariantHyperelastic):
     """Yeoh law W = sum_{i=1..3} Ci0 (I1b - 3)^i + U(J)."""
 
     kind = "yeoh"
+    fit_terms = (3, 3)
+    fit_rank = 2
 
-    C10: float = parameter("Pa", default=1.0e3, gt=0.0, doc="coefficient of (I1b - 3), G0 = 2 C10")
-    C20: float = parameter("Pa", default=0.0, doc="coefficient of (I1b - 3)^2")
-    C30: float = parameter("Pa", default=0.0, doc="coefficient of (I1b - 3)^3")
+    # calibration starts from the neo-Hookean solid of the data's modulus (G0 = 2 C10 = S), higher orders
+    # at 0: (I1 - 3)^i of large-stretch data (Treloar: I1 - 3 = 50) makes an equal share of S dominate
+    C10: float = parameter("Pa", default=1.0e3, gt=0.0, doc="coefficient of (I1b - 3), G0 = 2 C10",
+                           fit=Fit(1e-6, 50.0, scaled=True, modulus=True, start=0.5))
+    C20: float = parameter("Pa", default=0.0, doc="coefficient of (I1b - 3)^2",
+                           fit=Fit(-50.0, 50.0, scaled=True, modulus=True, order=2, start=0.0))
+    C30: float = parameter("Pa", default=0.0, doc="coefficient of (I1b - 3)^3",
+                           fit=Fit(-50.0, 50.0, scaled=True, modulus=True, order=3, start=0.0))
+
+    def abaqus_keywords(self) -> list[str]:
+        values = [self.C10, self.C20, self.C30, abaqus_D1(self), 0.0, 0.0]
+        return ["*HYPERELASTIC, REDUCED POLYNOMIAL, N=3", *data_lines(values)]
+
+    def febio_parameters(self) -> tuple[str, dict[str, float]]:
+        return "Yeoh", {"c1": self.C10, "c2": self.C20, "c3": self.C30, "k": self.K}  # FEYeoh: sum c_i (I1b - 3)^i
 
     @classmethod
     def example(cls) -> "Yeoh":

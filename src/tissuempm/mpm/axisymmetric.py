@@ -58,7 +58,6 @@ from typing import Any
 
 import numpy as np
 
-
 FBAR_AXISYMMETRIC = ("anti_locking = 'fbar' is not available for axisymmetric models: its cell-averaged volume "
                      "change breaks the hoop stretch r / r0 (src/tissuempm/mpm/axisymmetric.py); use 'none'")
 
@@ -70,12 +69,14 @@ def check_axisymmetric_model(grid: Any, boundaries: Sequence[Any]) -> None:
     if grid.origin[0] != 0.0:
         raise ValueError(f"axisymmetric: the grid's lower x (the axis) must be 0, got {grid.origin[0]!r} m")
     if grid.shape[2] != 1:
-        raise ValueError(f"axisymmetric: the grid must be one cell thick along z (the hoop direction), got {grid.shape[2]}")
+        raise ValueError("axisymmetric: the grid must be one cell thick along z (the hoop direction), "
+                         f"got {grid.shape[2]}")
     faces = {(b.axis, b.side): b.kind for b in boundaries}
     for axis, side in ((0, "lower"), (2, "lower"), (2, "upper")):
         if faces.get((axis, side)) != "slip":
             name = "xyz"[axis]
-            raise ValueError(f"axisymmetric: the {side} {name} face must be a slip face (it is {faces.get((axis, side))!r})")
+            raise ValueError(f"axisymmetric: the {side} {name} face must be a slip face "
+                             f"(it is {faces.get((axis, side))!r})")
 
 
 def per_radian_volume(x: np.ndarray, area: np.ndarray | float) -> np.ndarray:

@@ -175,11 +175,12 @@ def vibrate(
     v0 = amplitude * L * w_tim
     vel[:, 1] = v0 * mode_shape(x[:, 0], L)
     size = (d, d, h)
-    pd = ParticleData(x=x, volume=d * d * h, size=size, material=0, velocity=vel)
+    pd = ParticleData(x=x, volume=d * d * h, size=size, material=0, velocity=vel)  # type: ignore[arg-type]  # broadcast
     law = NeoHookean(C10=0.5 * G, K=K, density=rho)
     walls = [GridBoundary(2, side, "slip") for side in ("lower", "upper")]
     model = Model(grid=grid, materials=[law], boundaries=[GridBoundary(0, "lower", "fixed"), *walls])
-    solver = ExplicitSolver(model, SolverConfig(shape=shape, threads=threads, anti_locking=anti_locking, flip=flip))
+    cfg = SolverConfig(shape=shape, threads=threads, anti_locking=anti_locking, flip=flip)  # type: ignore[arg-type]
+    solver = ExplicitSolver(model, cfg)
     st = solver.initial_state(pd)
     ids_tip = np.flatnonzero(x[:, 0] > L - h)
     period = 2.0 * math.pi / w_tim

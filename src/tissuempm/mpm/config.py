@@ -5,35 +5,40 @@ step to the next (a ramped gravity, a driver velocity, a manufactured body
 force) go into a :class:`Control` passed to :meth:`ExplicitSolver.step`.
 """
 
-import math
 import os
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Annotated, Any, Literal, get_args
 
 import numpy as np
+from pydantic import AfterValidator, Field
 
 from tissuempm.mpm.tracking import check_track
-from tissuempm.precision import check_precision
+from tissuempm.options import Acceleration, Number, Rate, Time, check
+from tissuempm.precision import PRECISIONS
 
-ShapeFunction = Literal["linear", "gimp", "cpgimp", "bspline"]
-"""Grid basis: ``"linear"`` (tent, 2 nodes per axis), ``"gimp"`` (uniform GIMP,
-Bardenhagen & Kober 2004, 3 nodes per axis), ``"cpgimp"`` (contiguous-particle GIMP:
+ShapeFunction = Literal["gimp", "cpgimp", "linear", "bspline"]
+"""Grid basis: ``"gimp"`` (uniform GIMP, Bardenhagen & Kober 2004, 3 nodes per axis; the
+default), ``"linear"`` (tent, 2 nodes per axis), ``"cpgimp"`` (contiguous-particle GIMP:
 the particle domain follows the deformation gradient, capped at one cell; 3 nodes per axis)
 or ``"bspline"`` (quadratic B-spline, boundary-modified at the grid faces, 3 nodes
 per axis). See :mod:`tissuempm.mpm.shape_functions`."""
 Transfer = Literal["usl", "musl", "usf"]
 """Update scheme: update stress last, modified update stress last (velocity
 re-projected before the stress update; Sulsky et al. 1994) or update stress first."""
-SHAPES: tuple[str, ...] = ("linear", "gimp", "cpgimp", "bspline")
-TRANSFERS: tuple[str, ...] = ("usl", "musl", "usf")
-GRIDS: tuple[str, ...] = ("reset", "no_reset")
-DEVICES: tuple[str, ...] = ("cpu", "cuda")
-OUTFLOWS: tuple[str, ...] = ("remove", "stop")
+GridMode = Literal["reset", "no_reset"]
+Outflow = Literal["remove", "stop"]
 """What a particle leaving the grid does: ``"remove"`` (it is taken out of the computation and
 counted, :mod:`tissuempm.mpm.removal`) or ``"stop"`` (:class:`InstabilityError` ``"left grid"``)."""
-ANTI_LOCKING: tuple[str, ...] = ("none", "fbar")
+AntiLocking = Literal["none", "fbar"]
 """Volumetric treatments: ``"none"`` (each particle's own F) or ``"fbar"`` (cell-averaged
 volume change, :mod:`tissuempm.mpm.volumetric`)."""
+Precision = Literal[PRECISIONS]  # type: ignore[valid-type]
+SHAPES: tuple[str, ...] = get_args(ShapeFunction)
+TRANSFERS: tuple[str, ...] = get_args(Transfer)
+GRIDS: tuple[str, ...] = get_args(GridMode)
+DEVICES: tuple[str, ...] = ("cpu", "cuda")
+OUTFLOWS: tuple[str, ...] = get_args(Outflow)
+ANTI_LOCKING: tuple[str, ...] = get_args(AntiLocking)
 
 
 def _vec3(name: str, value: Any) -> tuple[float, float, float]:
@@ -43,9 +48,24 @@ def _vec3(name: str, value: Any) -> tuple[float, float, float]:
     return (float(a[0]), float(a[1]), float(a[2]))
 
 
+def _device(device: str) -> str:
+    if device.split(":")[0] not in DEVICES:
+        raise ValueError("is not valid: choose cpu or cuda (or cuda:N)")
+    return device
+
+
+Threads = Annotated[int, Field(ge=1, le=1024)]
+Coefficient = Annotated[float, Field(ge=0.0, le=10.0)]
+Fraction = Annotated[float, Field(ge=0.0, lt=1.0)]
+
+
 @dataclass(frozen=True, kw_only=True)
 class SolverConfig:
     """Options of the explicit MPM solver (all SI units).
+
+    Each option's type and valid range is its annotation, checked on construction
+    (:func:`tissuempm.options.check`) and shared with the scenario file's ``[solver]`` section;
+    an option with a unit also takes a string with one (``dt_max="2 us"``).
 
     Attributes
     ----------
@@ -117,69 +137,29 @@ class SolverConfig:
 
     shape: ShapeFunction = "gimp"
     transfer: Transfer = "musl"
-    flip: float = 0.99
-    cfl: float = 0.3
-    precision: str = "float64"
-    device: str = "cpu"
-    threads: int | None = None
-    chunks: int | None = None
-    gravity: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    damping: float = 0.0
-    dt_max: float | None = None
-    dt_min_fraction: float = 1.0e-4
-    sort_interval: int = 20
-    min_node_mass_fraction: float = 1.0e-9
-    grid: str = "reset"
-    reset_distance: float | None = None
-    reset_interval: int | None = None
-    anti_locking: str | None = None
-    bulk_viscosity_linear: float = 0.0
-    bulk_viscosity_quadratic: float = 0.0
-    outflow: str = "remove"
-    track: tuple[str, ...] = ()
+    flip: Annotated[float, Field(ge=0.0, le=1.0)] = 0.99
+    cfl: Annotated[Number, Field(gt=0.0, le=1.0)] = 0.3
+    precision: Precision = "float64"
+    device: Annotated[str, AfterValidator(_device)] = "cpu"
+    threads: Threads | None = None
+    chunks: Annotated[int, Field(ge=1)] | None = None
+    gravity: tuple[Acceleration, Acceleration, Acceleration] = (0.0, 0.0, 0.0)
+    damping: Annotated[Rate, Field(ge=0.0)] = 0.0
+    dt_max: Annotated[Time, Field(gt=0.0)] | None = None
+    dt_min_fraction: Fraction = 1.0e-4
+    sort_interval: Annotated[int, Field(ge=0)] = 20
+    min_node_mass_fraction: Fraction = 1.0e-9
+    grid: GridMode = "reset"
+    reset_distance: Annotated[float, Field(gt=0.0, allow_inf_nan=False)] | None = None
+    reset_interval: Annotated[int, Field(ge=1)] | None = None
+    anti_locking: AntiLocking | None = None
+    bulk_viscosity_linear: Coefficient = 0.0
+    bulk_viscosity_quadratic: Coefficient = 0.0
+    outflow: Outflow = "remove"
+    track: Annotated[tuple[str, ...], AfterValidator(check_track)] = ()
 
     def __post_init__(self) -> None:
-        if self.shape not in SHAPES:
-            raise ValueError(f"shape = {self.shape!r} is not valid: choose one of {', '.join(SHAPES)}")
-        if self.transfer not in TRANSFERS:
-            raise ValueError(f"transfer = {self.transfer!r} is not valid: choose one of {', '.join(TRANSFERS)}")
-        if not (0.0 <= self.flip <= 1.0):
-            raise ValueError(f"flip = {self.flip!r} is out of range: valid range is [0, 1]")
-        if not (0.0 < self.cfl <= 1.0):
-            raise ValueError(f"cfl = {self.cfl!r} is out of range: valid range is (0, 1]")
-        check_precision(self.precision)
-        if self.device.split(":")[0] not in DEVICES:
-            raise ValueError(f"device = {self.device!r} is not valid: choose cpu or cuda (or cuda:N)")
-        for name in ("threads", "chunks"):
-            v = getattr(self, name)
-            if v is not None and (not isinstance(v, int) or v < 1):
-                raise ValueError(f"{name} = {v!r}: must be a positive integer or None")
-        object.__setattr__(self, "gravity", _vec3("gravity", self.gravity))
-        if not (math.isfinite(self.damping) and self.damping >= 0.0):
-            raise ValueError(f"damping = {self.damping!r} is out of range: valid range is >= 0 1/s")
-        if self.dt_max is not None and not (math.isfinite(self.dt_max) and self.dt_max > 0.0):
-            raise ValueError(f"dt_max = {self.dt_max!r}: must be > 0 s or None")
-        if not (0.0 <= self.dt_min_fraction < 1.0):
-            raise ValueError(f"dt_min_fraction = {self.dt_min_fraction!r}: valid range is [0, 1)")
-        if not isinstance(self.sort_interval, int) or self.sort_interval < 0:
-            raise ValueError(f"sort_interval = {self.sort_interval!r}: must be an integer >= 0")
-        if not (0.0 <= self.min_node_mass_fraction < 1.0):
-            raise ValueError(f"min_node_mass_fraction = {self.min_node_mass_fraction!r}: valid range is [0, 1)")
-        if self.grid not in GRIDS:
-            raise ValueError(f"grid = {self.grid!r} is not valid: choose one of {', '.join(GRIDS)}")
-        if self.reset_distance is not None and not (math.isfinite(self.reset_distance) and self.reset_distance > 0.0):
-            raise ValueError(f"reset_distance = {self.reset_distance!r}: must be > 0 cells or None")
-        if self.reset_interval is not None and (not isinstance(self.reset_interval, int) or self.reset_interval < 1):
-            raise ValueError(f"reset_interval = {self.reset_interval!r}: must be an integer >= 1 or None")
-        if self.anti_locking is not None and self.anti_locking not in ANTI_LOCKING:
-            raise ValueError(f"anti_locking = {self.anti_locking!r} is not valid: choose one of {', '.join(ANTI_LOCKING)}")
-        for name in ("bulk_viscosity_linear", "bulk_viscosity_quadratic"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and 0.0 <= v <= 10.0):
-                raise ValueError(f"{name} = {v!r} is out of range: valid range is [0, 10]")
-        if self.outflow not in OUTFLOWS:
-            raise ValueError(f"outflow = {self.outflow!r} is not valid: choose one of {', '.join(OUTFLOWS)}")
-        object.__setattr__(self, "track", check_track(self.track))
+        check(self)  # each option by its annotation (tissuempm.options)
 
     @property
     def bulk_viscosity(self) -> bool:
@@ -202,6 +182,10 @@ class Control:
         Overrides :attr:`SolverConfig.gravity` [m/s^2] for this step (e.g. a ramp).
     rigid_velocity
         New prescribed velocity [m/s] per material index of a :class:`RigidMaterial`.
+    rigid_rotation
+        (angular velocity omega [rad/s], centre c [m] at the start of the step) per material index of a
+        prescribed :class:`RigidMaterial`: its particles then move with V + omega x (x - c)
+        (:mod:`tissuempm.mpm.rigid_pulses`; explicit solver only).
     boundary_velocity
         New velocity [m/s] per index into :attr:`Model.boundaries` ("velocity" and "slip" kinds).
     body_acceleration
@@ -212,5 +196,7 @@ class Control:
 
     gravity: tuple[float, float, float] | None = None
     rigid_velocity: dict[int, tuple[float, float, float]] = field(default_factory=dict)
+    rigid_rotation: dict[int, tuple[tuple[float, float, float], tuple[float, float, float]]] = field(
+        default_factory=dict)
     boundary_velocity: dict[int, tuple[float, float, float]] = field(default_factory=dict)
     body_acceleration: Any = None

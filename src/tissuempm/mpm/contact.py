@@ -104,21 +104,22 @@ separation criterion: the gap criterion only withholds corrections).
 """
 
 import functools
-import math
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Annotated, Any, Literal, get_args
 
 import numpy as np
 import warp as wp
+from pydantic import Field
 
-from tissuempm.mpm.model import GHOST
 from tissuempm.mpm.kernels import BC_SLIP, UPDATE, boundary_function, node_indices, node_strides, on_face, vec4_helpers
+from tissuempm.mpm.model import GHOST
+from tissuempm.options import check
 from tissuempm.precision import WarpTypes, kernel
 
 ContactKind = Literal["bonded", "frictionless", "friction"]
-CONTACT_KINDS: tuple[str, ...] = ("bonded", "frictionless", "friction")
+CONTACT_KINDS: tuple[str, ...] = get_args(ContactKind)
 Separation = Literal["gap", "node"]
-SEPARATIONS: tuple[str, ...] = ("gap", "node")
+SEPARATIONS: tuple[str, ...] = get_args(Separation)
 
 BAND = 0.6
 """Half-width of the band around the interface whose nodes carry the contact, as a fraction of
@@ -149,18 +150,22 @@ class ContactLaw:
     """
 
     kind: ContactKind = "bonded"
-    mu: float = 0.0
+    mu: Annotated[float, Field(ge=0.0, allow_inf_nan=False)] = 0.0
     separation: Separation = "gap"
 
     def __post_init__(self) -> None:
-        if self.kind not in CONTACT_KINDS:
-            raise ValueError(f"contact kind = {self.kind!r}: choose one of {', '.join(CONTACT_KINDS)}")
-        if self.separation not in SEPARATIONS:
-            raise ValueError(f"contact separation = {self.separation!r}: choose one of {', '.join(SEPARATIONS)}")
-        if not (isinstance(self.mu, (int, float)) and math.isfinite(self.mu) and self.mu >= 0):
-            raise ValueError(f"contact mu = {self.mu!r}: must be a finite number >= 0")
-        if self.kind != "friction" and self.mu != 0:
-            raise ValueError(f"contact mu = {self.mu!r} is only valid with kind 'friction' (kind is {self.kind!r})")
+        check(self, prefix="contact ")  # each option by its annotation, shared with [[contact]] (tissuempm.options)
+        problem = self.friction_problem(self.kind, self.mu)
+        if problem:
+            raise ValueError(f"contact {problem}")
+
+    @staticmethod
+    def friction_problem(kind: str, mu: float, key: str = "kind") -> str | None:
+        """Why a friction coefficient ``mu`` does not go with the law ``kind`` (the option named
+        ``key``: ``law`` in a scenario's ``[[contact]]``), or None: only ``"friction"`` takes mu != 0."""
+        if kind != "friction" and mu != 0:
+            return f"mu = {mu!r} is only valid with {key} = 'friction' ({key} is {kind!r})"
+        return None
 
 
 @dataclass(frozen=True)

@@ -52,12 +52,12 @@ SciPy's default column ordering (``python benchmarks/implicit_solvers.py``, docs
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Annotated, Any, Literal, get_args
 
 import numpy as np
 import warp as wp
+from pydantic import Field
 
 from tissuempm.materials.kinematics import mat66
 from tissuempm.mpm.config import Control, SolverConfig
@@ -67,11 +67,13 @@ from tissuempm.mpm.kernels import SLOT
 from tissuempm.mpm.model import Model
 from tissuempm.mpm.solver import ExplicitSolver
 from tissuempm.mpm.state import State
+from tissuempm.options import Time, check
 
 if TYPE_CHECKING:
     import scipy.sparse as sp
 
-LINEAR_SOLVERS: tuple[str, ...] = ("auto", "direct", "cg")
+LinearSolver = Literal["auto", "direct", "cg"]
+LINEAR_SOLVERS: tuple[str, ...] = get_args(LinearSolver)
 DIRECT_MAX = 200_000
 """Largest system (unknowns) that ``linear_solver = "auto"`` gives to the direct solver."""
 CG_RTOL = 1.0e-7
@@ -85,7 +87,8 @@ QS_REGULARISATION = 1.0e-9
 
 @dataclass(frozen=True, kw_only=True)
 class ImplicitConfig:
-    """Options of the implicit integrator (SI units).
+    """Options of the implicit integrator (SI units; each option's type and range is its annotation,
+    shared with the scenario file's ``[solver.implicit]``, :mod:`tissuempm.options`).
 
     Attributes
     ----------
@@ -105,24 +108,17 @@ class ImplicitConfig:
         (SuperLU) or ``"cg"`` (Jacobi-preconditioned conjugate gradients).
     """
 
-    dt: float
+    dt: Annotated[Time, Field(gt=0.0)]
     dynamic: bool = True
-    tolerance: float = 1.0e-6
-    max_iterations: int = 25
-    dt_min: float | None = None
-    linear_solver: str = "auto"
+    tolerance: Annotated[float, Field(gt=0.0, lt=1.0)] = 1.0e-6
+    max_iterations: Annotated[int, Field(ge=1, le=1000)] = 25
+    dt_min: Annotated[Time, Field(gt=0.0)] | None = None
+    linear_solver: LinearSolver = "auto"
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.dt) and self.dt > 0.0):
-            raise ValueError(f"implicit dt = {self.dt!r}: must be > 0 s")
-        if not (0.0 < self.tolerance < 1.0):
-            raise ValueError(f"implicit tolerance = {self.tolerance!r}: valid range is (0, 1)")
-        if not isinstance(self.max_iterations, int) or self.max_iterations < 1:
-            raise ValueError(f"implicit max_iterations = {self.max_iterations!r}: must be an integer >= 1")
-        if self.dt_min is not None and not (0.0 < self.dt_min <= self.dt):
-            raise ValueError(f"implicit dt_min = {self.dt_min!r}: valid range is (0, dt = {self.dt:g}] s")
-        if self.linear_solver not in LINEAR_SOLVERS:
-            raise ValueError(f"linear_solver = {self.linear_solver!r} is not valid: choose one of {', '.join(LINEAR_SOLVERS)}")
+        check(self, prefix="implicit ")  # each option by its annotation (tissuempm.options)
+        if self.dt_min is not None and self.dt_min > self.dt:
+            raise ValueError(f"dt_min = {self.dt_min:g} s must not exceed dt = {self.dt:g} s")
 
     def solver(self, unknowns: int) -> str:
         """The linear solver tried first for a system of ``unknowns``: ``"cg"`` for the dynamic
@@ -175,7 +171,8 @@ class ImplicitSolver(ExplicitSolver):
         if model.axisymmetric:
             raise ValueError("axisymmetric models need the explicit integrator (the implicit tangent is 3-D only)")
         if self.volumetric is not None or self.config.bulk_viscosity:  # none by default (default_anti_locking)
-            raise ValueError("anti_locking = 'fbar' and the bulk viscosity are available with the explicit integrator only")
+            raise ValueError("anti_locking = 'fbar' and the bulk viscosity are available with the explicit "
+                             "integrator only")
         self.implicit = implicit
         self.extra_fields = ("acc",)
         self.ik = implicit_kernels(self.t, self.config.shape)
@@ -220,6 +217,9 @@ class ImplicitSolver(ExplicitSolver):
         """Advance ``state`` by one converged implicit step; returns the step taken [s] (``dt``
         or, after halvings, less)."""
         st = state
+        if control is not None and any(any(w) for w, _ in control.rigid_rotation.values()):
+            raise ValueError("Control.rigid_rotation: the implicit solver's rigid drivers translate only "
+                             "(a rotating driver needs the explicit solver)")
         self._apply_control(control)
         h = dt if dt is not None else self.stable_dt(st)
         while True:
@@ -254,13 +254,17 @@ class ImplicitSolver(ExplicitSolver):
         common = [self.origin, s(1.0 / self.h), self.dims]
         wp.launch(self.ik.p2g, dim=st.n, device=self.device, inputs=[
             st.x, st.v, st.acc, st.mass, st.size, st.F, st.material, st.fixed, self.mat_rigid, self.rigid_vel,
-            body, int(self._body is not None), *common, self.n_m, self.n_mv, self.n_ma, self.n_fb, self.n_cm, self.n_cmv])  # fmt: skip
+            body, int(self._body is not None), *common, self.n_m, self.n_mv, self.n_ma, self.n_fb, self.n_cm,
+            self.n_cmv])  # fmt: skip
         wp.launch(self.ik.nodes, dim=self.n_nodes, device=self.device, inputs=[
             self.n_m, self.n_mv, self.n_ma, self.n_cm, self.n_cmv, s(st.min_node_mass), self.dims,
             len(self._bc_face), self.bc_kind, self.bc_vel, self.n_v, self.n_a, self.n_free, self.n_vc])  # fmt: skip
-        return {k: np.asarray(getattr(self, "n_" + k).numpy(), dtype=float) for k in ("m", "v", "a", "fb", "free", "vc", "cm", "cmv")}
+        return {k: np.asarray(getattr(self, "n_" + k).numpy(), dtype=float)
+                for k in ("m", "v", "a", "fb", "free", "vc", "cm", "cmv")}
 
-    def _residual_parts(self, st: State, u: np.ndarray, dt: float, stiffness: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    def _residual_parts(
+        self, st: State, u: np.ndarray, dt: float, stiffness: bool
+    ) -> tuple[np.ndarray, np.ndarray | None]:
         """Particle update at nodal displacement ``u`` and the assembly: (f_int, K blocks). With
         ``stiffness`` (a Newton iteration) no particle fails anew; without (the accepted step) the
         laws' failure is evaluated."""
@@ -272,8 +276,9 @@ class ImplicitSolver(ExplicitSolver):
         def update(c: int, b: int, e: int) -> None:
             for i, prm, frozen, kern in self._updates:
                 self._launch(kern, e - b, [
-                    i, frozen if stiffness else prm, st.x, st.size, st.F, self.n_u, st.material, st.fiber, st.history, st.history_next, *common,
-                    s(dt), self._F, self._L, self._sig, self._c, st.bad, b, c * SLOT], c)  # fmt: skip
+                    i, frozen if stiffness else prm, st.x, st.size, st.F, self.n_u, st.material, st.fiber, st.history,
+                    st.history_next, *common, s(dt), self._F, self._L, self._sig, self._c, st.bad, b,
+                    c * SLOT], c)  # fmt: skip
 
         def assemble(c: int, b: int, e: int) -> None:
             f, Kb = self._f_chunks[c], self._K_chunks[c]
@@ -284,13 +289,14 @@ class ImplicitSolver(ExplicitSolver):
                 st.x, st.size, st.F, self._F, self._sig, self._c, st.volume0, st.material, self.mat_rigid, *common,
                 int(stiffness), f, self.n_row, Kb, b, self._symmetric], ("assemble", c))  # fmt: skip
 
-        self._parallel([lambda c=c, b=b, e=e: update(c, b, e) for c, (b, e) in enumerate(st.chunks)])
+        self._parallel([lambda c=c, b=b, e=e: update(c, b, e) for c, (b, e) in enumerate(st.chunks)])  # type: ignore[misc]
         bad = int(self._slots(st, "bad").min())
         if bad < st.n:
             x = st.x.numpy()[bad].astype(float)
-            raise NotConverged(f"particle {int(st.id.numpy()[bad])} at {x.tolist()} inverted or its stress is not finite", x)
-        self._parallel([lambda c=c, b=b, e=e: assemble(c, b, e) for c, (b, e) in enumerate(st.chunks)])
-        f_int = sum(np.asarray(f.numpy(), dtype=float) for f in self._f_chunks[: len(st.chunks)])
+            raise NotConverged(f"particle {int(st.id.numpy()[bad])} at {x.tolist()} inverted or its stress is not "
+                               "finite", x)
+        self._parallel([lambda c=c, b=b, e=e: assemble(c, b, e) for c, (b, e) in enumerate(st.chunks)])  # type: ignore[misc]
+        f_int: np.ndarray = sum(np.asarray(f.numpy(), dtype=float) for f in self._f_chunks[: len(st.chunks)])  # type: ignore[assignment]
         if not stiffness:
             return f_int, None
         K = np.asarray(self._K_chunks[0].numpy(), dtype=float)  # a view, used at once
@@ -374,16 +380,16 @@ class ImplicitSolver(ExplicitSolver):
             a_new = 4.0 / dt**2 * (ua - dt * v0) - a0 if cfg.dynamic else np.zeros_like(ua)
             inertia = mdof * a_new
             R = f_ext - fi - inertia
-            norm_f = max(np.linalg.norm(fi), np.linalg.norm(f_ext), np.linalg.norm(inertia), 1e-300)
+            norm_f = max(np.linalg.norm(fi), np.linalg.norm(f_ext), np.linalg.norm(inertia), 1e-300)  # type: ignore[assignment]
             r_free = R[free]
-            K = self._matrix(blocks, act, idx)[free][:, free]
+            K = self._matrix(blocks, act, idx)[free][:, free]  # type: ignore[arg-type]  # stiffness=True: blocks
             reg = 4.0 / dt**2 * mdof[free] if cfg.dynamic else QS_REGULARISATION * np.abs(K.diagonal()).max()
             K.setdiag(K.diagonal() + reg)  # every active node couples to itself: no new entries
             du = self._linear_solve(K, r_free)
             ua[free] += du
             self.iterations += 1
             r_rel = np.linalg.norm(r_free) / norm_f
-            if r_rel <= cfg.tolerance and np.linalg.norm(du) <= cfg.tolerance * max(np.linalg.norm(ua[free]), 1e-300):
+            if r_rel <= cfg.tolerance and np.linalg.norm(du) <= cfg.tolerance * max(np.linalg.norm(ua[free]), 1e-300):  # type: ignore[operator]
                 break
             if not np.all(np.isfinite(ua)):
                 raise NotConverged(f"Newton iteration {it} diverged")
@@ -442,8 +448,8 @@ class ImplicitSolver(ExplicitSolver):
         wp.launch(self.ik.finish, dim=st.n, device=self.device, inputs=[
             st.x, st.v, st.acc, st.vpic, st.size, st.F, st.material, st.fixed, self.mat_rigid, self.rigid_vel,
             self.n_u, self.n_dv, self.n_vnew, self.n_anew, self.origin, s(1.0 / self.h), self.dims, s(dt),
-            s(self.config.flip), self.lower, self.upper, self.wall_lo, self.wall_hi, st.bad, st.stress, self._sig, self._L, self._F,
-            st.volume0, st.work])  # fmt: skip
+            s(self.config.flip), self.lower, self.upper, self.wall_lo, self.wall_hi, st.bad, st.stress, self._sig,
+            self._L, self._F, st.volume0, st.work])  # fmt: skip
         wp.copy(st.F, self._F)
         wp.copy(st.L, self._L)
         wp.copy(st.stress, self._sig)

@@ -244,8 +244,9 @@ def implicit_kernels(t: WarpTypes, shape: str) -> Any:
         fixed: wp.array(dtype=wp.int32), mat_rigid: wp.array(dtype=wp.int32), rigid_vel: wp.array(dtype=vec3),
         u: wp.array(dtype=vec3), dv: wp.array(dtype=vec3), v_new: wp.array(dtype=vec3),
         a_new: wp.array(dtype=vec3), origin: vec3, inv_h: s, dims: wp.vec3i, dt: s, flip: s,
-        lower: vec3, upper: vec3, wall_lo: vec3, wall_hi: vec3, bad: wp.array(dtype=int), sig_old: wp.array(dtype=mat33),
-        sig_new: wp.array(dtype=mat33), L_new: wp.array(dtype=mat33), F_new: wp.array(dtype=mat33),
+        lower: vec3, upper: vec3, wall_lo: vec3, wall_hi: vec3, bad: wp.array(dtype=int),
+        sig_old: wp.array(dtype=mat33), sig_new: wp.array(dtype=mat33), L_new: wp.array(dtype=mat33),
+        F_new: wp.array(dtype=mat33),
         vol0: wp.array(dtype=s), work: wp.array(dtype=s),
     ):  # fmt: skip
         """Particle update of a converged step: x += sum S u_i; v <- flip (v + sum S dv_i) +

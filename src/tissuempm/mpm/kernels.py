@@ -23,6 +23,7 @@ from typing import Any
 import warp as wp
 
 from tissuempm.mpm.model import GHOST
+from tissuempm.mpm.rigid_pulses import rigid_motion_functions
 from tissuempm.mpm.shape_functions import GIMP_SHAPES, STENCIL, axis_weights, particle_domain
 from tissuempm.precision import WarpTypes, kernel
 
@@ -274,6 +275,7 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
     stencil, field_of, NP = h.stencil, h.field_of, h.NP
     extent, scatter_position = h.extent, h.scatter_position
     pack = vec4_helpers(t).pack
+    rigid_velocity, _, rigid_turns, rigid_first_node = rigid_motion_functions(t)
     POS = NF > 1 and (flags & MASS) != 0  # the contact gap's position record
 
     @transfer_kernel
@@ -306,7 +308,8 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
     ):
         """Particle to grid, into 4-vector node records (one SIMD register each):
         MASS: (m v, m)_i = sum S m_p (v_p, 1) in ``b_mm``, and the constraint record (m v_c, m)_i of
-        rigid (v_c their material's velocity) and fixed (v_c = 0) particles in ``b_c``; with several
+        rigid (v_c their material's velocity; a rotating driver's V + omega x (x_i - c) at the node x_i,
+        :mod:`tissuempm.mpm.rigid_pulses`) and fixed (v_c = 0) particles in ``b_c``; with several
         velocity fields also every particle's position record in ``b_x`` (``scatter_position``:
         the nodal centres of mass of the contact gap, :mod:`tissuempm.mpm.contact`);
         FORCE: (f, 0)_i = -sum V_p sigma_p grad S + sum S m_p b_p in ``b_f``; axisymmetric (``AX``,
@@ -332,11 +335,26 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
             scatter_position(b_x, nb, sx, sy, wx, wy, wz, dx, dy, dz, xr, m, extent(size, F, p, inv_h), inv_h)
         if mat_rigid[mat] != 0:
             if wp.static(flags & MASS):
-                mvr = pack(m * rigid_vel[mat], m)
-                for i in range(NP):
-                    for j in range(NP):
-                        for k in range(NP):
-                            b_c[nb + i * sx + j * sy + k * NF] += (wx[i] * wy[j] * wz[k]) * mvr
+                if rigid_turns(rigid_vel, mat):  # the rotating driver's field at each node (mpm.rigid_pulses)
+                    xn0 = rigid_first_node(nb, NF, dims, origin, inv_h)
+                    hn = s(1.0) / inv_h
+                    xi = xn0
+                    for i in range(NP):
+                        xj = xi
+                        for j in range(NP):
+                            xk = xj
+                            for k in range(NP):
+                                vr = pack(m * rigid_velocity(rigid_vel, mat, xk), m)
+                                b_c[nb + i * sx + j * sy + k * NF] += (wx[i] * wy[j] * wz[k]) * vr
+                                xk = xk + vec3(s(0.0), s(0.0), hn)
+                            xj = xj + vec3(s(0.0), hn, s(0.0))
+                        xi = xi + vec3(hn, s(0.0), s(0.0))
+                else:
+                    mvr = pack(m * rigid_vel[mat], m)
+                    for i in range(NP):
+                        for j in range(NP):
+                            for k in range(NP):
+                                b_c[nb + i * sx + j * sy + k * NF] += (wx[i] * wy[j] * wz[k]) * mvr
             return
         mv = pack(m * v[p], m)
         mc = vec4(s(0.0), s(0.0), s(0.0), m)
@@ -531,6 +549,7 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
     stencil, field_of, NP = h.stencil, h.field_of, h.NP
     v4 = vec4_helpers(t)
     pack, head = v4.pack, v4.head
+    rigid_step = rigid_motion_functions(t)[1]
 
     @transfer_kernel
     def g2p(
@@ -582,7 +601,8 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
                   ``wall_hi``; +-inf where there is none) that it crossed by round-off or FLIP
                   drift, then checked to be inside the grid.
         REPROJECT (with MOVE): b_mm_i += S (m_p v_p, m_p) (MUSL), so the re-projection costs no second stencil.
-        Rigid particles move with their material's velocity and keep F; fixed ones stay put.
+        Rigid particles move with their material's rigid motion (translation and rotation, the Cayley step
+        of :mod:`tissuempm.mpm.rigid_pulses`) and keep F; fixed ones stay put.
         The nodal velocities are 4-vectors (last component 0) so the sums run in SIMD registers.
         """
         p = begin + wp.tid()
@@ -632,9 +652,9 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
                             c3 += wij * sg
             if wp.static(flags & MOVE):
                 vpic = head(vpic4)
-                if rigid:
-                    vpic = rigid_vel[mat]
-                    v[p] = vpic
+                if rigid:  # the rigid table's motion (mpm.rigid_pulses): Cayley step of the rotation
+                    vpic, vr = rigid_step(rigid_vel, mat, xp, dt)
+                    v[p] = vr
                 elif fixed[p] != 0:
                     vpic = vec3()
                     v[p] = vpic
@@ -756,7 +776,8 @@ def cell_key_kernel(t: WarpTypes) -> Any:
     vec3 = t.vec3
 
     @kernel
-    def cell_key(x: wp.array(dtype=vec3), origin: wp.vec3d, inv_h: wp.float64, dims: wp.vec3i, key: wp.array(dtype=wp.int64)):
+    def cell_key(x: wp.array(dtype=vec3), origin: wp.vec3d, inv_h: wp.float64, dims: wp.vec3i,
+                 key: wp.array(dtype=wp.int64)):
         p = wp.tid()
         xp = x[p]
         c = wp.vec3i()
@@ -797,16 +818,21 @@ def material_kernels(cls: type, t: WarpTypes, bulk_viscosity: bool = False) -> S
     ``_quadratic``) in compression.
     """
     s, vec3, mat33 = t.scalar, t.vec3, t.mat33
-    stress_fn = cls.stress_function(t.precision)
+    stress_moduli_fn = cls.stress_moduli_function(t.precision)
     moduli_fn = cls.moduli_function(t.precision)
     BV = bulk_viscosity
 
     @wp.func
-    def wave_speed(Fp: mat33, a0: vec3, prm: wp.array(dtype=s), hist: wp.array2d(dtype=s), p: int):
+    def speed_of(K: s, Gm: s, J: s, prm: wp.array(dtype=s)):
         """c = sqrt((K + 4G/3) / rho), rho = rho0 / J (Ionescu et al. 2006 eq. 9)."""
-        K, Gm = moduli_fn(Fp, a0, prm, hist, p)
-        c2 = (K + s(4.0) / s(3.0) * Gm) * wp.determinant(Fp) / prm[0]
+        c2 = (K + s(4.0) / s(3.0) * Gm) * J / prm[0]
         return wp.sqrt(wp.max(c2, s(0.0)))
+
+    @wp.func
+    def wave_speed(Fp: mat33, a0: vec3, prm: wp.array(dtype=s), hist: wp.array2d(dtype=s), p: int):
+        """``speed_of`` the law's moduli at ``Fp`` with history row ``hist[p]``."""
+        K, Gm = moduli_fn(Fp, a0, prm, hist, p)
+        return speed_of(K, Gm, wp.determinant(Fp), prm)
 
     @wp.func
     def signal_speed(Fp: mat33, a0: vec3, prm: wp.array(dtype=s), hist: wp.array2d(dtype=s), p: int, vp: vec3):
@@ -854,15 +880,16 @@ def material_kernels(cls: type, t: WarpTypes, bulk_viscosity: bool = False) -> S
         Fp = F[p]
         Lp = L[p]
         a0 = fiber[p]
-        sig = stress_fn(Fp, Lp, a0, prm, s_in, s_out, p, dt)
+        # the stress and the moduli of the new state in one call (a law computes its invariants once)
+        sig, Kn, Gn = stress_moduli_fn(Fp, Lp, a0, prm, s_in, s_out, p, dt)
         D = s(0.5) * (Lp + wp.transpose(Lp))
         J = wp.determinant(Fp)
+        cw = speed_of(Kn, Gn, J, prm)
         sig_old = sigma[p]
         if wp.static(BV):
             sig_old = sig_old + bulk_q[p] * wp.identity(n=3, dtype=s)
         work[p] = work[p] + s(0.5) * wp.ddot(sig_old + sig, D) * vol0[p] * J * dt
         if wp.static(BV):
-            cw = wave_speed(Fp, a0, prm, s_out, p)
             trD = wp.trace(Lp)
             q = s(0.0)
             Q = s(0.0)
@@ -876,7 +903,7 @@ def material_kernels(cls: type, t: WarpTypes, bulk_viscosity: bool = False) -> S
             wp.atomic_max(speed, c, Q + wp.sqrt(Q * Q + cw * cw) + wp.length(v[p]))
         else:
             sigma[p] = sig
-            wp.atomic_max(speed, c, signal_speed(Fp, a0, prm, s_out, p, v[p]))
+            wp.atomic_max(speed, c, cw + wp.length(v[p]))
         if not wp.isfinite(wp.ddot(sig, sig)):
             wp.atomic_min(bad, c, p)
 

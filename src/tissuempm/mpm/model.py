@@ -112,7 +112,8 @@ class GridBoundary:
 class RigidMaterial:
     """A rigid body: a driver moved with a prescribed velocity or a free projectile.
 
-    Its particles translate with the body velocity; every grid node they touch takes that
+    Its particles translate with the body velocity (a driver also turns with ``Control.rigid_rotation``:
+    V + omega x (x - c), :mod:`tissuempm.mpm.rigid_pulses`); every grid node they touch takes that
     velocity, so material sharing those nodes sticks to it (with contact, other bodies slide on
     and separate from it). The solver reports the reaction force the rest of the model exerts
     on it (:meth:`ExplicitSolver.diagnostics`).

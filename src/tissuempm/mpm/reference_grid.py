@@ -129,7 +129,8 @@ class ReferenceGrid:
 def check_no_reset(shape: str, n_fields: int) -> None:
     """Refuse the combinations the no-reset grid does not support (named errors)."""
     if shape == "cpgimp":
-        raise ValueError("grid = 'no_reset' needs shape 'gimp', 'linear' or 'bspline' (cpGIMP domains follow F already)")
+        raise ValueError("grid = 'no_reset' needs shape 'gimp', 'linear' or 'bspline' "
+                         "(cpGIMP domains follow F already)")
     if n_fields > 1:
         raise ValueError("grid = 'no_reset' cannot be combined with contact (bodies that separate need a reset grid)")
 

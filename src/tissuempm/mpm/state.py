@@ -15,6 +15,7 @@ import numpy as np
 import warp as wp
 
 from tissuempm.materials.base import Material
+from tissuempm.materials.failure import NO_FAILURE_MODEL
 from tissuempm.mpm.kernels import gather_kernel
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -145,8 +146,9 @@ class State:
 
         Keys: every entry of :data:`PARTICLE_FIELDS` and of the state's :data:`OPTIONAL_FIELDS`,
         ``state`` (n, n_state_max), ``J`` (n,),
-        ``failure`` (n,) int (0 intact, 1 matrix, 2 fiber, 3 both; -1 where the law has no
-        failure variable), ``order`` (ids in storage order), ``removed`` (:attr:`removed`, a copy),
+        ``failure`` (n,) int (the codes of :class:`~tissuempm.materials.failure.FailureMode`:
+        0 intact, 1 matrix, 2 fiber, 3 both; ``NO_FAILURE_MODEL`` = -1 where the law has no failure
+        variable), ``order`` (ids in storage order), ``removed`` (:attr:`removed`, a copy),
         and scalars ``time``, ``step``, ``dt_ref`` (NaN if not yet set), ``removed_rigid``.
         ``materials`` defaults to the solver's.
         """
@@ -160,7 +162,7 @@ class State:
         out["fixed"] = out["fixed"].astype(bool)
         out["state"] = np.array(self.history.numpy()[inv])
         out["J"] = np.linalg.det(out["F"].astype(np.float64))
-        failure = np.full(self.n, -1, dtype=np.int32)
+        failure = np.full(self.n, NO_FAILURE_MODEL, dtype=np.int32)
         for k, m in enumerate(materials):
             if isinstance(m, Material):
                 sl = m.state_layout().get("failure")
@@ -240,7 +242,7 @@ class State:
         the arrays (``in_place``, same count) or into new arrays of ``len(perm)``."""
         dev = self.x.device
         m = len(perm)
-        p = wp.array(np.asarray(perm, dtype=np.int64), dtype=wp.int64, device=dev)
+        p: wp.array = wp.array(np.asarray(perm, dtype=np.int64), dtype=wp.int64, device=dev)
         scratch: dict[Any, wp.array] = {}
         for name in self.fields:
             a = getattr(self, name)
@@ -255,7 +257,8 @@ class State:
         cols = self.history.shape[1]
         tmp = wp.empty((m, cols), dtype=self.history.dtype, device=dev)
         if cols > 0:
-            wp.launch(gather_kernel(self.history.dtype, rows=True), dim=(m, cols), inputs=[self.history, p, tmp], device=dev)
+            wp.launch(gather_kernel(self.history.dtype, rows=True), dim=(m, cols), inputs=[self.history, p, tmp],
+                      device=dev)
         if not in_place:
             self.history, self.history_next = tmp, wp.clone(tmp)
         elif cols > 0:

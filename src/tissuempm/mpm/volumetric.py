@@ -49,6 +49,7 @@ import warp as wp
 
 from tissuempm.precision import WarpTypes, kernel
 
+
 @functools.cache
 def fbar_kernels(t: WarpTypes, n_fields: int) -> Any:
     """``measure``, ``accumulate`` and ``apply`` kernels of the F-bar pass for types ``t`` and
@@ -193,7 +194,8 @@ class CellAverage:
         edges = [round(i * self.n_entries / parts) for i in range(parts + 1)]
 
         def task(i: int) -> Any:
-            return lambda: sv._launch(kern, st.n, [self.key, self.share, edges[i], edges[i + 1], self.table], ("fbar", i))
+            return lambda: sv._launch(kern, st.n, [self.key, self.share, edges[i], edges[i + 1], self.table],
+                                      ("fbar", i))
 
         sv._parallel([task(i) for i in range(parts)])
 

@@ -18,13 +18,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tissuempm.mpm import Control, Grid, GridBoundary, ImplicitConfig, Model, ParticleData, SolverConfig, State
-from tissuempm.mpm import blast
+from tissuempm.mpm import Control, Grid, GridBoundary, ImplicitConfig, Model, ParticleData, SolverConfig, State, blast
+from tissuempm.mpm.rigid_pulses import RotatingDriver
 from tissuempm.mpm.surface_loads import BlastLoad, detect_surface, surface_acceleration
 from tissuempm.scenarios.amplitude import Amplitude
 from tissuempm.scenarios.checks import check_bodies, check_size
 from tissuempm.scenarios.geometry import Shape, UniformFiber, Union, seed
-from tissuempm.scenarios.schema import Scenario, ScenarioError
+from tissuempm.scenarios.schema import RigidSpec, Scenario, ScenarioError
 
 Vec3 = tuple[float, float, float]
 
@@ -41,6 +41,10 @@ class Loading:
         Material index -> (velocity [m/s], amplitude) of rigid drivers with an amplitude.
     boundary_velocity
         Boundary index (into ``Model.boundaries``) -> (velocity [m/s], amplitude).
+    rotations
+        Material index -> :class:`~tissuempm.mpm.rigid_pulses.RotatingDriver` of rigid drivers with a
+        ``rotation`` pulse: :meth:`at` gives each step the angular velocity whose rotation is the pulse's
+        angle increment from ``state.time`` to 2 ``time`` - ``state.time`` and the centre at the step's start.
     blasts
         Blast waves on surface particles (:class:`~tissuempm.mpm.surface_loads.BlastLoad`): with a
         state, :meth:`at` adds their body accelerations (``Control.body_acceleration``).
@@ -57,6 +61,7 @@ class Loading:
     rigid_velocity: dict[int, tuple[Vec3, Amplitude]] = field(default_factory=dict)
     boundary_velocity: dict[int, tuple[Vec3, Amplitude]] = field(default_factory=dict)
     blasts: tuple[BlastLoad, ...] = ()
+    rotations: dict[int, RotatingDriver] = field(default_factory=dict)
 
     def at(self, time: float, state: State | None = None) -> Control:
         """The loads at ``time`` [s]; loads without an amplitude keep their model and config values.
@@ -69,9 +74,11 @@ class Loading:
             a = amplitude(time)
             return (a * vector[0], a * vector[1], a * vector[2])
 
+        t0 = time if state is None else state.time
         return Control(
             gravity=None if self.gravity is None else scaled(self.gravity),
             rigid_velocity={i: scaled(load) for i, load in self.rigid_velocity.items()},
+            rigid_rotation={i: r.control(t0, max(t0, 2.0 * time - t0)) for i, r in self.rotations.items()},
             boundary_velocity={i: scaled(load) for i, load in self.boundary_velocity.items()},
             body_acceleration=None if not self.blasts or state is None else surface_acceleration(
                 list(self.blasts), state, state.time, max(state.time, 2.0 * time - state.time)),
@@ -94,7 +101,19 @@ def loading(scenario: Scenario) -> Loading:
             for i, bc in enumerate(sc.boundaries)
             if bc.amplitude is not None
         },
+        rotations={
+            i: _rotating_driver(sc, rigid) for i, rigid in sc.rigid_drivers().items() if rigid.rotation is not None
+        },
     )
+
+
+def _rotating_driver(sc: Scenario, rigid: RigidSpec) -> RotatingDriver:
+    """The :class:`RotatingDriver` of a rigid driver's ``rotation`` (its centre moves with the driver)."""
+    rot = rigid.rotation
+    assert rot is not None  # loading() calls it for the drivers that have a rotation
+    curve = None if rot.amplitude is None else sc.amplitude(rot.amplitude)
+    return RotatingDriver(rot.pulse(curve), rot.centre, rigid.velocity,
+                          None if rigid.amplitude is None else sc.amplitude(rigid.amplitude))  # fmt: skip
 
 
 @dataclass
@@ -122,28 +141,19 @@ class Problem:
 
 
 def solver_config(scenario: Scenario, device: str = "cpu") -> SolverConfig:
-    """The :class:`SolverConfig` of ``[solver]`` on ``device`` (gravity at t = 0)."""
+    """The :class:`SolverConfig` of ``[solver]`` (its options, :meth:`SolverSection.options`) on
+    ``device``, with gravity at t = 0, ``[run]``'s outflow and tracked peaks and the bulk viscosity of
+    ``[solver.bulk_viscosity]`` (off without the table)."""
     s = scenario.solver
     start = loading(scenario).at(0.0)
-    return SolverConfig(
-        shape=s.shape,
-        transfer=s.transfer,
-        flip=s.flip,
-        cfl=s.cfl,
-        precision=s.precision,
+    bulk = s.bulk_viscosity
+    return s.config(
         device=device,
-        threads=s.threads,
         gravity=s.gravity if start.gravity is None else start.gravity,
-        damping=s.damping,
-        dt_max=s.dt_max,
-        grid=s.grid,
-        reset_distance=s.reset_distance,
-        reset_interval=s.reset_interval,
         outflow=scenario.run.outflow,
         track=scenario.tracked(),
-        anti_locking=s.anti_locking,
-        bulk_viscosity_linear=s.bulk_viscosity.linear if s.bulk_viscosity is not None else 0.0,
-        bulk_viscosity_quadratic=s.bulk_viscosity.quadratic if s.bulk_viscosity is not None else 0.0,
+        bulk_viscosity_linear=bulk.linear if bulk is not None else 0.0,
+        bulk_viscosity_quadratic=bulk.quadratic if bulk is not None else 0.0,
     )
 
 
@@ -152,8 +162,7 @@ def implicit_config(scenario: Scenario) -> ImplicitConfig | None:
     im = scenario.solver.implicit
     if scenario.solver.integrator != "implicit" or im is None:
         return None
-    return ImplicitConfig(dt=im.dt, dynamic=im.dynamic, tolerance=im.tolerance, max_iterations=im.max_iterations,
-                          dt_min=im.dt_min, linear_solver=im.linear_solver)  # fmt: skip
+    return im.config()
 
 
 def build_model(scenario: Scenario) -> Model:
@@ -175,7 +184,8 @@ def seed_particles(scenario: Scenario, model: Model) -> tuple[ParticleData, np.n
     """Seed every body; returns the particles and the body index of each."""
     grid = model.grid
     names = list(scenario.materials)
-    parts: dict[str, list[np.ndarray]] = {k: [] for k in ("x", "volume", "size", "material", "velocity", "fiber", "body")}
+    parts: dict[str, list[np.ndarray]] = {
+        k: [] for k in ("x", "volume", "size", "material", "velocity", "fiber", "body")}
     claimed: list[Shape] = []
     for i, body in enumerate(scenario.bodies):
         shape = body.shape.build()
@@ -202,9 +212,9 @@ def seed_particles(scenario: Scenario, model: Model) -> tuple[ParticleData, np.n
             ids = [body_names.index(b) for b in fix.bodies]
             mask &= np.isin(data["body"], ids)
         fixed |= mask
-    body = data.pop("body")
+    body_index = data.pop("body")
     body_field = scenario.contact_fields()[0]
-    return ParticleData(fixed=fixed, field=body_field[body], **data), body
+    return ParticleData(fixed=fixed, field=body_field[body_index], **data), body_index
 
 
 def with_free_masses(scenario: Scenario, model: Model, particles: ParticleData, body: np.ndarray) -> Model:
@@ -259,10 +269,11 @@ def blast_loads(scenario: Scenario, particles: ParticleData, body: np.ndarray) -
         d = np.asarray(b.direction, float) / np.linalg.norm(b.direction)
         if b.reference_point is None:  # the first surface particle the front meets
             xs = particles.x[surface.index]
-            ref = tuple(float(c) for c in xs[int(np.argmin(xs @ d))])
+            first = xs[int(np.argmin(xs @ d))]
+            ref = (float(first[0]), float(first[1]), float(first[2]))
         else:
             ref = b.reference_point
         speed = b.front_speed if b.front_speed is not None else blast.shock_speed(b.peak, b.ambient, b.sound_speed)
-        out.append(BlastLoad(surface, particles.n, b.peak, b.duration, b.decay, tuple(float(c) for c in d),
-                             b.arrival_time, ref, speed, blast.reflected_peak(b.peak, b.ambient), b.reflection))  # fmt: skip
+        out.append(BlastLoad(surface, particles.n, b.peak, b.duration, b.decay, (float(d[0]), float(d[1]), float(d[2])),
+                             b.arrival_time, ref, speed, blast.reflected_peak(b.peak, b.ambient), b.reflection))
     return tuple(out)

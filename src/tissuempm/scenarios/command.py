@@ -2,7 +2,7 @@
 
 import time as wallclock
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.console import Console
@@ -53,13 +53,16 @@ def run(
         str | None, typer.Option("--out", "-o", help="Output folder (default: run.output or results/<name>).")
     ] = None,
     device: Annotated[str, typer.Option("--device", help="cpu or cuda.")] = "cpu",
-    restart: Annotated[bool, typer.Option("--restart", help="Continue from the last checkpoint in the output folder.")] = False,
+    restart: Annotated[
+        bool, typer.Option("--restart", help="Continue from the last checkpoint in the output folder.")
+    ] = False,
     overwrite: Annotated[
         bool, typer.Option("--overwrite", help="Replace the run in the output folder (its frames, checkpoint, ...).")
     ] = False,
     overrides: Annotated[
         list[str] | None,
-        typer.Option("--set", help="Override a key: --set solver.cfl=0.1 --set 'body[0].velocity=[0, \"150 m/s\", 0]'."),
+        typer.Option("--set",
+                     help="Override a key: --set solver.cfl=0.1 --set 'body[0].velocity=[0, \"150 m/s\", 0]'."),
     ] = None,
 ) -> None:
     """Run an MPM scenario: VTU frames + .pvd for ParaView, HDF5 checkpoints and summary.json.
@@ -104,7 +107,7 @@ def run(
                 if now - last["wall"] < 0.1 and p.time < p.end_time:
                     return
                 last["wall"] = now
-                fields: dict[str, object] = {"t": si_time(p.time), "sps": p.steps_per_s}
+                fields: dict[str, Any] = {"t": si_time(p.time), "sps": p.steps_per_s}
                 if now > last["clock0"] and p.time > last["t0"]:
                     fields["rate"] = (p.time - last["t0"]) / (now - last["clock0"])
                 bar.update(task, completed=min(p.time, p.end_time), **fields)
@@ -123,7 +126,8 @@ def run(
     except (CheckpointError, OutputFolderError) as e:
         raise _fail(e) from None
     except OSError as e:  # the folder became unwritable or the disk is full while running
-        raise _fail(f"cannot write the output in {out_dir}: {e.strerror or e}; the last complete checkpoint is kept") from None
+        raise _fail(f"cannot write the output in {out_dir}: {e.strerror or e}; "
+                    "the last complete checkpoint is kept") from None
     except KeyboardInterrupt as e:  # Ctrl-C, or SIGTERM (stop.Terminated) from a batch scheduler
         what = "terminated (SIGTERM)" if isinstance(e, stop.Terminated) else "interrupted"
         console.print(f"[yellow]{what}[/yellow]: continue with --restart (checkpoint in {markup(out_dir, None)})",

@@ -20,7 +20,7 @@ Example
 >>> import numpy as np
 >>> slab = Box(lower=(0, 0, 0), upper=(0.05, 0.01, 0.05))
 >>> x, vol, size = seed(slab, origin=(0, 0, 0), cell_size=0.01, cells=(5, 1, 5), per_cell=2)
->>> x.shape, float(vol.sum())
+>>> x.shape, round(float(vol.sum()), 12)  # 200 particles of (h/2)^3 = 1.25e-7 m^3
 ((200, 3), 2.5e-05)
 """
 

@@ -52,6 +52,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, cast, overload
 
 import numpy as np
 
@@ -185,10 +186,10 @@ def _diag_affine(spacing: np.ndarray, origin: np.ndarray) -> np.ndarray:
 def _read_nifti(path: Path) -> tuple[np.ndarray, np.ndarray]:
     import nibabel as nib
 
-    img = nib.load(str(path))
+    img: Any = nib.load(str(path))  # a Nifti1Image or Nifti2Image (nibabel types the result as the base class)
     unit = img.header.get_xyzt_units()[0] or "unknown"
     scale = _UNITS.get(unit, 1e-3)
-    affine = np.asarray(img.affine, dtype=float).copy()
+    affine = np.asarray(img.affine, dtype=np.float64).copy()
     affine[:3, :] *= scale
     return np.asanyarray(img.dataobj), affine
 
@@ -215,7 +216,8 @@ def _read_nrrd(path: Path) -> tuple[np.ndarray, np.ndarray]:
         if data.ndim > 3:
             other = [k for k in range(data.ndim) if k not in keep]
             if any(data.shape[k] != 1 for k in other):
-                raise VolumeError(f"{where}: a non-spatial axis of length > 1 (shape {data.shape}): one label volume expected")
+                raise VolumeError(f"{where}: a non-spatial axis of length > 1 (shape {data.shape}): "
+                                  "one label volume expected")
             data = data.reshape([data.shape[k] for k in keep])
         m = np.array(rows).T  # columns: the world vector of one step along each index axis
         origin = np.asarray(header.get("space origin", np.zeros(3)), dtype=float)
@@ -258,6 +260,10 @@ def _read_numpy(path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarray |
         return z[key], get("affine"), get("spacing"), get("origin")
 
 
+@overload
+def _vector(value: np.ndarray, name: str, where: str) -> np.ndarray: ...
+@overload
+def _vector(value: None, name: str, where: str) -> None: ...
 def _vector(value: np.ndarray | None, name: str, where: str) -> np.ndarray | None:
     if value is None:
         return None
@@ -267,7 +273,9 @@ def _vector(value: np.ndarray | None, name: str, where: str) -> np.ndarray | Non
     return v
 
 
-def _read(path: Path, spacing: tuple[float, float, float] | None, origin: tuple[float, float, float] | None) -> LabelVolume:
+def _read(
+    path: Path, spacing: tuple[float, float, float] | None, origin: tuple[float, float, float] | None
+) -> LabelVolume:
     where = str(path)
     fmt = volume_format(path)
     if not path.is_file():
@@ -394,7 +402,9 @@ def _box(affine: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray
 
 
 @functools.lru_cache(maxsize=64)
-def _label_mask(volume: LabelVolume, labels: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+def _label_mask(
+    volume: LabelVolume, labels: tuple[int, ...]
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
     """(mask of the voxels holding ``labels``, lowest and highest index of those voxels)."""
     mask = np.isin(volume.labels, np.asarray(labels, dtype=np.int32))
     if not mask.any():
@@ -425,7 +435,7 @@ class LabelShape(Shape):
         object.__setattr__(self, "_mask", mask)
         object.__setattr__(self, "_affine", affine)
         object.__setattr__(self, "_inverse", np.linalg.inv(affine))
-        object.__setattr__(self, "_bounds", _box(affine, lo, hi))
+        object.__setattr__(self, "_bounds", _box(affine, lo, cast(np.ndarray, hi)))  # hi is None only with lo
 
     @property
     def affine(self) -> np.ndarray:

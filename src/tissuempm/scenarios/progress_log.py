@@ -17,7 +17,7 @@ import datetime
 import os
 import time as wallclock
 from collections.abc import Callable
-from typing import TextIO
+from typing import IO
 
 DEFAULT_EVERY_S = 30.0
 DEFAULT_EVERY_PERCENT = 5.0
@@ -63,9 +63,9 @@ class LineProgress:
         Wall-clock sources (seconds; a UTC ``datetime``), replaceable in tests.
     """
 
-    def __init__(self, stream: TextIO, every_s: float | None = None, every_percent: float = DEFAULT_EVERY_PERCENT,
+    def __init__(self, stream: IO[str], every_s: float | None = None, every_percent: float = DEFAULT_EVERY_PERCENT,
                  clock: Callable[[], float] = wallclock.monotonic,
-                 now: Callable[[], datetime.datetime] = lambda: datetime.datetime.now(datetime.timezone.utc)):
+                 now: Callable[[], datetime.datetime] = lambda: datetime.datetime.now(datetime.UTC)):
         self.stream = stream
         self.every_s = _every_s() if every_s is None else every_s
         self.every_percent = every_percent

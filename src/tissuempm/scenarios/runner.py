@@ -61,15 +61,16 @@ from tissuempm.io import (
     CheckpointError,
     HistoryLog,
     VTUSeries,
+    lock,
     particle_fields,
     read_checkpoint,
     write_checkpoint,
     write_json,
 )
-from tissuempm.io import lock
 from tissuempm.io.background import BackgroundWriter
 from tissuempm.io.frames import DEFAULT_FRAME_FIELDS, select_fields, state_names
 from tissuempm.io.head_history import head_history_columns
+from tissuempm.materials.failure import FailureMode
 from tissuempm.mpm import ExplicitSolver, ImplicitSolver, InstabilityError, State
 from tissuempm.mpm.state import REMOVAL_COLUMNS, REMOVAL_REASONS
 from tissuempm.safety import InputLimitError, inside
@@ -156,7 +157,7 @@ class Runner:
         self.warnings = stability_warnings(scenario)
         implicit = implicit_config(scenario)
         self.solver = (
-            ExplicitSolver(self.problem.model, self.problem.config)
+            ExplicitSolver(self.problem.model, self.problem.config, load=False)  # run() loads them, in parallel
             if implicit is None
             else ImplicitSolver(self.problem.model, self.problem.config, implicit)
         )
@@ -316,7 +317,7 @@ class Runner:
     ) -> RunResult:
         """:meth:`run` in the locked folder."""
         run = self.scenario.run
-        self.series = VTUSeries(self.out, SERIES)
+        self.series = VTUSeries(self.out, SERIES, compression=run.frame_compression, precision=run.frame_precision)
         rigid = {i: n for i, n in enumerate(self.problem.material_names) if self.problem.model.is_rigid(i)}
         free = tuple(i for i in rigid if self.problem.model.is_free(i))
         removed = tuple(f"{r}_{c}" for r in REMOVAL_REASONS for c in REMOVAL_COLUMNS)
@@ -324,8 +325,10 @@ class Runner:
                                   axisymmetric=self.problem.model.axisymmetric)
         self.clock0, self.wall_before = wallclock.perf_counter(), 0.0
         self.output_s, self.frame_at, self.history_at = 0.0, -math.inf, -1
-        self.writer = BackgroundWriter(depth=2)
+        self.writer: BackgroundWriter = BackgroundWriter(depth=2)
         try:
+            if not isinstance(self.solver, ImplicitSolver):  # a cold cache compiles here, in parallel, not in step 1
+                self.solver.load_kernels(kernels)
             if restart:
                 state = self._resume()
                 restarted_from: float | None = state.time
@@ -334,8 +337,6 @@ class Runner:
                 state = self.solver.initial_state(self.problem.particles)
                 restarted_from = None
             write_json(self.out / SCENARIO, self.scenario.model_dump(mode="json", by_alias=True))
-            if not isinstance(self.solver, ImplicitSolver):  # a cold cache compiles here, not in the first step
-                self.solver.load_kernels(kernels)
             startup = self.startup_s + wallclock.perf_counter() - started
             self.clock0 = wallclock.perf_counter()
             if not restart:
@@ -440,8 +441,7 @@ class Runner:
             diag = self.solver.diagnostics(state)
             diag["reaction"] = {names[i]: f for i, f in diag.get("reaction", {}).items()}
             out["diagnostics"] = diag
-            codes = np.asarray(final.get("failure", []))  # -1: the particle's law has no failure model
-            if np.any(codes >= 0):
-                labels = ("intact", "matrix", "fiber", "both")
-                out["failure_counts"] = {label: int(np.sum(codes == k)) for k, label in enumerate(labels)}
+            codes = np.asarray(final.get("failure", []))  # NO_FAILURE_MODEL (-1): the law has no failure model
+            if np.any(codes >= FailureMode.INTACT):
+                out["failure_counts"] = {mode.label: int(np.sum(codes == mode)) for mode in FailureMode}
         return out

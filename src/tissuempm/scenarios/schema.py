@@ -23,7 +23,6 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from pydantic import (
-    AfterValidator,
     BaseModel,
     BeforeValidator,
     ConfigDict,
@@ -36,6 +35,22 @@ from pydantic import (
     model_validator,
 )
 
+from tissuempm import options
+from tissuempm.mpm.config import SolverConfig
+from tissuempm.mpm.contact import ContactLaw
+from tissuempm.mpm.implicit import ImplicitConfig
+from tissuempm.options import (
+    Angle,
+    AngularAcceleration,
+    AngularSpeed,
+    Density,
+    Length,
+    Mass,
+    Number,
+    Pressure,
+    Speed,
+    Time,
+)
 from tissuempm.scenarios import geometry
 from tissuempm.scenarios.amplitude import Amplitude
 from tissuempm.scenarios.units import UnitError, parse_quantity
@@ -45,25 +60,6 @@ class ScenarioError(ValueError):
     """A scenario file is unreadable, has unknown keys or holds values out of range."""
 
 
-def _finite(value: float) -> float:
-    if not math.isfinite(value):
-        raise ValueError("must be a finite number")
-    return value
-
-
-def quantity(unit: str) -> Any:
-    """A finite float field accepting SI numbers or strings with units of the dimension of ``unit``."""
-    return Annotated[float, BeforeValidator(lambda v: parse_quantity(v, unit)), AfterValidator(_finite)]
-
-
-Length = quantity("m")
-Time = quantity("s")
-Speed = quantity("m/s")
-Acceleration = quantity("m/s^2")
-Angle = quantity("rad")
-Density = quantity("kg/m^3")
-Mass = quantity("kg")
-Number = quantity("1")
 Point = tuple[Length, Length, Length]
 Direction = tuple[Number, Number, Number]
 Velocity = tuple[Speed, Speed, Speed]
@@ -161,63 +157,58 @@ AmplitudeRef = Annotated[
 # ---------------------------------------------------------------------------- [solver]
 
 
-class ImplicitSection(Section):
-    """``[solver.implicit]``: the implicit integrator (:class:`tissuempm.mpm.ImplicitConfig`)."""
-
-    dt: Annotated[Time, Field(gt=0.0)]
-    dynamic: bool = True
-    tolerance: Annotated[float, Field(gt=0.0, lt=1.0)] = 1.0e-6
-    max_iterations: Annotated[int, Field(ge=1, le=1000)] = 25
-    dt_min: Annotated[Time, Field(gt=0.0)] | None = None
-    linear_solver: Literal["auto", "direct", "cg"] = "auto"
+class ImplicitSection(options.section(ImplicitConfig, Section, "ImplicitOptions")):  # type: ignore[misc]
+    """``[solver.implicit]``: the implicit integrator, every option of :class:`tissuempm.mpm.ImplicitConfig`
+    (its types, ranges and defaults: :mod:`tissuempm.options`)."""
 
     @model_validator(mode="after")
-    def _dt_min(self) -> "ImplicitSection":
-        if self.dt_min is not None and self.dt_min > self.dt:
-            raise ValueError(f"dt_min = {self.dt_min:g} s must not exceed dt = {self.dt:g} s")
+    def _config(self) -> "ImplicitSection":
+        self.config()  # the options' own cross checks (dt_min <= dt)
         return self
+
+
+_SOLVER_TYPES = options.annotations(SolverConfig)
+_Coefficient = _SOLVER_TYPES["bulk_viscosity_linear"]
+_Outflow = _SOLVER_TYPES["outflow"]
 
 
 class BulkViscositySection(Section):
     """``[solver.bulk_viscosity]``: artificial bulk viscosity in compression (an empty table takes
-    LS-DYNA's defaults): q = rho h (quadratic h (tr D)^2 - linear c tr D) for tr D < 0."""
+    LS-DYNA's defaults): q = rho h (quadratic h (tr D)^2 - linear c tr D) for tr D < 0
+    (``SolverConfig.bulk_viscosity_linear``, ``_quadratic``)."""
 
-    linear: Annotated[float, Field(ge=0.0, le=10.0)] = 0.06
-    quadratic: Annotated[float, Field(ge=0.0, le=10.0)] = 1.5
+    linear: _Coefficient = 0.06  # type: ignore[valid-type]
+    quadratic: _Coefficient = 1.5  # type: ignore[valid-type]
 
 
-class SolverSection(Section):
-    """``[solver]``: the MPM settings (:class:`tissuempm.mpm.SolverConfig`; with
-    ``integrator = "implicit"`` also :class:`tissuempm.mpm.ImplicitConfig` from ``[solver.implicit]``)."""
+_SOLVER_KEYS = ("grid", "reset_distance", "reset_interval", "shape", "transfer", "flip", "cfl", "precision",
+                "threads", "gravity", "damping", "dt_max", "anti_locking")
+"""The options of :class:`tissuempm.mpm.SolverConfig` a ``[solver]`` table holds (types, ranges and
+defaults are SolverConfig's); ``device`` comes from the command line, ``outflow`` and ``track`` from
+``[run]``, the bulk viscosity from ``[solver.bulk_viscosity]``."""
+
+
+class SolverSection(options.section(SolverConfig, Section, "SolverOptions", include=_SOLVER_KEYS)):  # type: ignore[misc]
+    """``[solver]``: the MPM settings (:class:`tissuempm.mpm.SolverConfig`, the options of
+    :data:`_SOLVER_KEYS`; with ``integrator = "implicit"`` also :class:`tissuempm.mpm.ImplicitConfig`
+    from ``[solver.implicit]``). ``anti_locking`` None: the integrator's default ("fbar" explicit,
+    "none" implicit; docs/mpm.md says why)."""
 
     integrator: Literal["explicit", "implicit"] = "explicit"
-    grid: Literal["reset", "no_reset"] = "reset"
-    reset_distance: Annotated[float, Field(gt=0.0)] | None = None
-    reset_interval: Annotated[int, Field(ge=1)] | None = None
     implicit: ImplicitSection | None = None
-
-    shape: Literal["gimp", "cpgimp", "linear", "bspline"] = "gimp"
-    transfer: Literal["usl", "musl", "usf"] = "musl"
-    flip: Annotated[float, Field(ge=0.0, le=1.0)] = 0.99
-    cfl: Annotated[Number, Field(gt=0.0, le=1.0)] = 0.3
-    precision: Literal["float64", "float32"] = "float64"
-    threads: Annotated[int, Field(ge=1, le=1024)] | None = None
-    gravity: tuple[Acceleration, Acceleration, Acceleration] = (0.0, 0.0, 0.0)
     gravity_amplitude: AmplitudeRef | None = None
-    damping: Annotated[quantity("1/s"), Field(ge=0.0)] = 0.0
-    dt_max: Annotated[Time, Field(gt=0.0)] | None = None
-    anti_locking: Literal["none", "fbar"] | None = None
-    """None: the integrator's default ("fbar" explicit, "none" implicit; docs/mpm.md says why)."""
     bulk_viscosity: BulkViscositySection | None = None
 
     @model_validator(mode="after")
     def _integrator(self) -> "SolverSection":
         if self.integrator == "implicit" and (self.anti_locking == "fbar" or self.bulk_viscosity is not None):
-            raise ValueError("anti_locking = 'fbar' and [solver.bulk_viscosity] are available with integrator = 'explicit' only")
+            raise ValueError("anti_locking = 'fbar' and [solver.bulk_viscosity] are available with "
+                             "integrator = 'explicit' only")
         if self.integrator == "implicit" and self.implicit is None:
             raise ValueError("integrator = 'implicit' needs a [solver.implicit] table with at least dt (the time step)")
         if self.integrator == "explicit" and self.implicit is not None:
-            raise ValueError("[solver.implicit] is given but integrator = 'explicit': set integrator = 'implicit' or drop it")
+            raise ValueError("[solver.implicit] is given but integrator = 'explicit': "
+                             "set integrator = 'implicit' or drop it")
         if self.grid == "no_reset" and self.integrator == "implicit":
             raise ValueError("grid = 'no_reset' is available with integrator = 'explicit' only")
         if self.grid == "no_reset" and self.shape == "cpgimp":
@@ -496,7 +487,8 @@ class RotatingFiberSpec(Section):
 
 
 FiberSpec = Annotated[UniformFiberSpec | RotatingFiberSpec, Field(discriminator="type")]
-_TAGS = {"box", "sphere", "cylinder", "union", "difference", "labels", "uniform", "rotating", "amplitude-name", "amplitude-table"}
+_TAGS = {"box", "sphere", "cylinder", "union", "difference", "labels", "uniform", "rotating", "amplitude-name",
+         "amplitude-table"}
 
 
 # ---------------------------------------------------------------------------- [[body]], [[fixed]]
@@ -527,8 +519,13 @@ class FixedSection(Section):
     bodies: list[str] | None = None
 
 
-class ContactSection(Section):
-    """``[[contact]]``: how two bodies interact (:mod:`tissuempm.mpm.contact`).
+_ContactOptions = options.section(ContactLaw, Section, "ContactOptions", rename={"kind": "law"},
+                                  defaults={"kind": "friction"})
+
+
+class ContactSection(_ContactOptions):  # type: ignore[valid-type, misc]
+    """``[[contact]]``: how two bodies interact (:mod:`tissuempm.mpm.contact`): the options of
+    :class:`~tissuempm.mpm.contact.ContactLaw` (``law`` is its ``kind``, default ``"friction"``).
 
     Pairs not listed are ``bonded`` (one velocity field: they stick together, as single-field
     MPM); ``frictionless`` and ``friction`` give each side its own velocity field, allow
@@ -538,14 +535,12 @@ class ContactSection(Section):
     """
 
     bodies: Annotated[list[str], Field(min_length=2, max_length=2)]
-    law: Literal["bonded", "frictionless", "friction"] = "friction"
-    mu: Annotated[float, Field(ge=0.0, allow_inf_nan=False)] = 0.0
-    separation: Literal["gap", "node"] = "gap"
 
     @model_validator(mode="after")
     def _mu_with_friction(self) -> "ContactSection":
-        if self.law != "friction" and self.mu != 0.0:
-            raise ValueError(f"mu = {self.mu} is only valid with law = 'friction' (law is {self.law!r})")
+        problem = ContactLaw.friction_problem(self.law, self.mu, key="law")
+        if problem:
+            raise ValueError(problem)
         if self.bodies[0] == self.bodies[1]:
             raise ValueError(f"bodies = {self.bodies}: a body cannot be in contact with itself")
         return self
@@ -564,13 +559,13 @@ class BlastSection(Section):
     """
 
     bodies: Annotated[list[str], Field(min_length=1)]
-    peak: Annotated[quantity("Pa"), Field(gt=0.0, le=1.0e9)]
+    peak: Annotated[Pressure, Field(gt=0.0, le=1.0e9)]
     duration: Annotated[Time, Field(gt=0.0)]
     decay: Annotated[Number, Field(ge=0.0, le=100.0)] = 1.0
     direction: Direction = (1.0, 0.0, 0.0)
     arrival_time: Annotated[Time, Field(ge=0.0)] = 0.0
     reference_point: Point | None = None
-    ambient: Annotated[quantity("Pa"), Field(gt=0.0)] = 101_325.0
+    ambient: Annotated[Pressure, Field(gt=0.0)] = 101_325.0
     sound_speed: Annotated[Speed, Field(gt=0.0)] = 340.29
     front_speed: Annotated[Speed, Field(gt=0.0)] | None = None
     reflection: Literal["conwep", "normal", "incident"] = "conwep"
@@ -606,7 +601,7 @@ class LabelEntry(Section):
     def _material(self) -> "LabelEntry":
         if (self.material is None) == (self.library is None):
             raise ValueError(f"label {self.label}: give one of material (a [materials] name) or library "
-                             f"(a tissue name), got material = {self.material!r}, library = {self.library!r}")  # fmt: skip
+                             f"(a tissue name), got material = {self.material!r}, library = {self.library!r}")
         return self
 
 
@@ -667,6 +662,7 @@ class LabelVolumeSection(VolumeOptions):
         bodies, added = [], {}
         for e in self.entries():
             material = e.material if e.material is not None else e.library
+            assert material is not None  # LabelEntry._material: exactly one of material, library is given
             if e.library is not None and e.library not in defined and e.library not in added:
                 added[e.library] = {"library": e.library}
             name = e.name or material
@@ -744,12 +740,17 @@ class RunSection(Section):
     """Particle fields of a VTU frame (names of :data:`tissuempm.io.frames.FRAME_FIELDS`,
     ``"state"`` for the history variables, ``"all"``); default
     :data:`tissuempm.io.frames.DEFAULT_FRAME_FIELDS`. Checkpoints hold every field."""
+    frame_compression: Literal["zlib", "none"] = "zlib"
+    """VTU frames compressed with zlib level 1, or not (fastest to write, 2-3 times larger; docs/mpm.md)."""
+    frame_precision: Literal["single", "double"] = "single"
+    """Positions and floating-point fields of a frame as float32, or float64 (the old full-precision frames:
+    ``frame_compression = "none"`` with ``"double"``; :func:`tissuempm.io.vtu.write_vtu`)."""
     max_steps: Annotated[int, Field(ge=1)] | None = None
     max_particles: Annotated[int, Field(ge=1)] | None = None
     """Largest particle count the run may seed (default: as many as fit in the memory of the
     machine, :func:`tissuempm.scenarios.checks.check_size`)."""
-    outflow: Literal["remove", "stop"] = "remove"
-    """A particle leaving the grid through a face without a wall is removed and counted
+    outflow: _Outflow = SolverConfig.outflow  # type: ignore[valid-type]
+    """``SolverConfig.outflow``: a particle leaving the grid through a face without a wall is removed and counted
     (``"remove"``, :mod:`tissuempm.mpm.removal`) or stops the run (``"stop"``, "left grid")."""
     output: str | None = None
     track: list[str] | None = None
@@ -853,12 +854,73 @@ def _material_values(cls: type, data: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+class RotationSpec(Section):
+    """``rotation = {...}`` of a rigid driver: a rotational acceleration pulse about ``axis`` through
+    ``centre`` (:class:`~tissuempm.mpm.rigid_pulses.RotationPulse`; docs/head_loads.md section 3).
+
+    ``shape = "half_sine"`` or ``"triangle"``: the angular acceleration pulse of ``duration`` starting at
+    ``start``, given by its peak ``angular_acceleration`` [rad/s^2] or by the ``angular_velocity``
+    [rad/s] it reaches at its end (one of the two). ``shape = "table"``: omega(t) =
+    ``angular_velocity`` a(t), a(t) the ``amplitude`` curve. The centre moves with the driver's
+    translation (``velocity`` and its ``amplitude``).
+    """
+
+    axis: Direction
+    centre: Point
+    shape: Literal["half_sine", "triangle", "table"] = "half_sine"
+    angular_acceleration: AngularAcceleration | None = None
+    angular_velocity: AngularSpeed | None = None
+    duration: Annotated[Time, Field(gt=0.0)] | None = None
+    start: Annotated[Time, Field(ge=0.0)] = 0.0
+    amplitude: AmplitudeRef | None = None
+
+    @model_validator(mode="after")
+    def _pulse(self) -> "RotationSpec":
+        if not any(self.axis):
+            raise ValueError(f"axis = {list(self.axis)}: the rotation axis must be a non-zero vector")
+        given = [k for k in ("angular_acceleration", "angular_velocity") if getattr(self, k) is not None]
+        if self.shape == "table":
+            if self.amplitude is None or self.angular_velocity is None:
+                raise ValueError("shape = 'table' needs amplitude (the curve a(t)) and angular_velocity "
+                                 "(omega = angular_velocity a(t))")  # fmt: skip
+            extra = [k for k in ("angular_acceleration", "duration") if getattr(self, k) is not None]
+            if extra:
+                raise ValueError(f"shape = 'table' takes no {' or '.join(extra)}: the table gives the pulse")
+        else:
+            if self.duration is None:
+                raise ValueError(f"shape = {self.shape!r} needs duration (the pulse's length, > 0 s)")
+            if len(given) != 1:
+                raise ValueError(f"shape = {self.shape!r} needs one of angular_acceleration (the peak, rad/s^2) or "
+                                 f"angular_velocity (reached at the end, rad/s); got {given or 'neither'}")  # fmt: skip
+            if self.amplitude is not None:
+                raise ValueError(f"amplitude applies to shape = 'table' (got shape = {self.shape!r})")
+        return self
+
+    def pulse(self, amplitude: Amplitude | None = None) -> Any:
+        """The :class:`~tissuempm.mpm.rigid_pulses.RotationPulse` (``amplitude``: the resolved curve of a table)."""
+        from tissuempm.mpm.rigid_pulses import RotationPulse
+
+        # _pulse (the validator) guarantees what each branch needs: a table's angular_velocity; otherwise the
+        # duration and exactly one of angular_acceleration, angular_velocity
+        if self.shape == "table":
+            assert self.angular_velocity is not None
+            return RotationPulse(axis=self.axis, shape="table", peak=self.angular_velocity, start=self.start,
+                                 amplitude=amplitude)  # fmt: skip
+        assert self.duration is not None
+        if self.angular_acceleration is not None:
+            return RotationPulse(axis=self.axis, shape=self.shape, peak=self.angular_acceleration,
+                                 duration=self.duration, start=self.start)  # fmt: skip
+        assert self.angular_velocity is not None
+        return RotationPulse.from_peak_velocity(self.axis, self.shape, self.angular_velocity, self.duration, self.start)
+
+
 class RigidSpec(Section):
     """``kind = "rigid"``: a driver moving at a prescribed velocity, perfectly bonded to the tissue
     (or, with ``[[contact]]``, sliding on it), or with ``free = true`` a rigid projectile whose
     velocity (initially ``velocity``) follows the forces on it (translation only).
 
-    ``amplitude`` scales a driver's ``velocity`` in time (:meth:`build` gives the nominal velocity).
+    ``amplitude`` scales a driver's ``velocity`` in time (:meth:`build` gives the nominal velocity);
+    ``rotation`` (:class:`RotationSpec`) turns a driver about a centre with a rotational pulse.
     """
 
     velocity: Velocity = (0.0, 0.0, 0.0)
@@ -867,9 +929,13 @@ class RigidSpec(Section):
     """Total mass [kg] of a free body's particles (instead of ``density``, which is then scaled to it)."""
     amplitude: AmplitudeRef | None = None
     free: bool = False
+    rotation: RotationSpec | None = None
 
     @model_validator(mode="after")
     def _free_body(self) -> "RigidSpec":
+        if self.free and self.rotation is not None:
+            raise ValueError("rotation: a free rigid body (free = true) does not rotate (translation only); "
+                             "a rotational pulse needs a driver (free = false)")  # fmt: skip
         if self.mass is not None and not self.free:
             raise ValueError(f"mass = {self.mass:g} kg applies to a free rigid body (free = true): "
                              "a driver's motion is prescribed; give its density instead")  # fmt: skip
@@ -1003,12 +1069,17 @@ class Scenario(Section):
                     "[[contact]] needs solver.integrator = 'explicit' and solver.grid = 'reset' "
                     f"(got {self.solver.integrator!r}, {self.solver.grid!r})"
                 )
-        for i, b in enumerate(self.blasts):
-            for name in b.bodies:
+        for i, blast in enumerate(self.blasts):
+            for name in blast.bodies:
                 if name not in body_names:
                     raise ValueError(f"blast[{i}].bodies: {name!r} is not a body name: choose from {body_names}")
             if self.solver.integrator == "implicit":
                 raise ValueError(f"blast[{i}]: [[blast]] needs solver.integrator = 'explicit'")
+        if self.solver.integrator == "implicit":
+            for i, spec in self.rigid_drivers().items():
+                if spec.rotation is not None:
+                    name = list(self.materials)[i]
+                    raise ValueError(f"materials.{name}.rotation needs solver.integrator = 'explicit'")
         seen = set()
         for i, bc in enumerate(self.boundaries):
             if (bc.axis, bc.side) in seen:
@@ -1087,7 +1158,8 @@ class Scenario(Section):
 
         h = self.grid.cell_size
         taken: dict[tuple[Any, ...], tuple[Any, set[int]]] = {}
-        uses = [(f"body[{i}].shape", b.shape, b.particles_per_cell) for i, b in enumerate(self.bodies)]
+        uses: list[tuple[str, ShapeSpec, int | None]] = [
+            (f"body[{i}].shape", b.shape, b.particles_per_cell) for i, b in enumerate(self.bodies)]
         uses += [(f"fixed[{i}].region", f.region, None) for i, f in enumerate(self.fixed)]
         for where, shape, per_cell in uses:
             for spec in _label_specs(shape):
@@ -1097,7 +1169,8 @@ class Scenario(Section):
                     raise ValueError(
                         f"{where}: grid.cell_size = {h * 1e3:g} mm is below {MIN_CELL_FRACTION:g} of the voxel size "
                         f"{voxel * 1e3:g} mm of {spec.file}: the particles would resolve the voxels' staircase at "
-                        f"{(voxel / h) ** 3:.0f} cells per voxel; use cell_size >= {MIN_CELL_FRACTION * voxel * 1e3:g} mm "
+                        f"{(voxel / h) ** 3:.0f} cells per voxel; use cell_size >= "
+                        f"{MIN_CELL_FRACTION * voxel * 1e3:g} mm "
                         "or resample the volume finer"
                     )
                 if per_cell is None:
@@ -1132,6 +1205,8 @@ class Scenario(Section):
         names = list(self.materials)
         uses = [("solver.gravity_amplitude", self.solver.gravity_amplitude)]
         uses += [(f"materials.{names[i]}.amplitude", spec.amplitude) for i, spec in self.rigid_drivers().items()]
+        uses += [(f"materials.{names[i]}.rotation.amplitude", spec.rotation.amplitude)
+                 for i, spec in self.rigid_drivers().items() if spec.rotation is not None]  # fmt: skip
         uses += [(f"boundary[{i}].amplitude", bc.amplitude) for i, bc in enumerate(self.boundaries)]
         return [(where, ref) for where, ref in uses if ref is not None]
 
@@ -1150,9 +1225,9 @@ class Scenario(Section):
     def contact_fields(self) -> tuple[Any, Any]:
         """(velocity field of each body, :class:`~tissuempm.mpm.contact.Contact` or None) from
         ``[[contact]]`` (:func:`~tissuempm.mpm.contact.assign_fields`)."""
-        from tissuempm.mpm.contact import ContactLaw, assign_fields
+        from tissuempm.mpm.contact import assign_fields
 
-        laws = {tuple(c.bodies): ContactLaw(c.law, c.mu, c.separation) for c in self.contacts}
+        laws = {tuple(c.bodies): c.config() for c in self.contacts}
         return assign_fields(self.body_names(), laws)  # type: ignore[arg-type]
 
     def build_materials(self) -> list[Any]:
@@ -1167,15 +1242,9 @@ class Scenario(Section):
         ``base``: the folder relative data file paths (label volumes, label tables) start from:
         the scenario file's folder (:func:`load_scenario`); default the working folder.
         """
-        from tissuempm.safety import InputLimitError, check_limits
+        from tissuempm.config_files import validate
 
-        try:
-            check_limits(data, "scenario")
-            return cls.model_validate(data, context={"base": None if base is None else str(base)})
-        except ValidationError as e:
-            raise ScenarioError(format_errors(e)) from None
-        except InputLimitError as e:
-            raise ScenarioError(str(e)) from None
+        return validate(cls, data, "scenario", ScenarioError, {"base": None if base is None else str(base)}, _TAGS)
 
 
 def _label_specs(shape: Any) -> list[LabelsSpec]:
@@ -1190,36 +1259,10 @@ def _label_specs(shape: Any) -> list[LabelsSpec]:
 
 
 def _path(loc: tuple[Any, ...]) -> str:
-    out = ""
-    tag = False  # the previous part was a union tag: this one is a key even when it reads like a tag
-    for part in loc:
-        if isinstance(part, int):
-            out += f"[{part}]"
-        elif (part in _TAGS and not tag) or str(part).startswith("function-"):
-            tag = part in _TAGS
-            continue
-        else:
-            out += f".{part}" if out else str(part)
-        tag = False
-    return out
+    """The key path of an error location in a scenario (:func:`tissuempm.config_files.key_path`)."""
+    from tissuempm.config_files import key_path
 
-
-def format_errors(error: ValidationError) -> str:
-    """One line per error: ``key.path: message (got value)``."""
-    lines = []
-    for err in error.errors():
-        path = _path(err["loc"]) or "scenario"
-        msg = err["msg"].removeprefix("Value error, ")
-        if err["type"] == "extra_forbidden":
-            msg = "unknown key"
-        got = err.get("input")
-        shown = "" if isinstance(got, (dict, list)) or err["type"] == "missing" else f" (got {got!r})"
-        if not err["loc"] or msg.startswith((f"{path}.", f"{path}[")):  # the validator already named the key
-            lines.append(f"{msg}{shown}")
-        else:
-            lines.append(f"{path}: {msg}{shown}")
-    n = len(lines)
-    return f"{n} error{'s' if n > 1 else ''} in scenario:\n  " + "\n  ".join(lines)
+    return key_path(loc, _TAGS)
 
 
 def load_scenario(path: str | Path, overrides: list[str] | None = None) -> Scenario:

@@ -131,7 +131,7 @@ def probe(address: str, timeout: float = PROBE_TIMEOUT_S) -> None:
     try:
         with socket.create_connection((host, port), timeout=timeout):
             pass
-    except socket.timeout:
+    except TimeoutError:
         raise TimeoutError(f"no answer from {host}:{port} within {timeout:g} s") from None
 
 

@@ -34,10 +34,12 @@ def study(
         str | None, typer.Option("--scheduler", help="Address of a running Dask scheduler, e.g. tcp://host:8786.")
     ] = None,
     workers: Annotated[
-        int | None, typer.Option("--workers", min=1, help="Workers of the local cluster (default: sized to the machine).")
+        int | None,
+        typer.Option("--workers", min=1, help="Workers of the local cluster (default: sized to the machine)."),
     ] = None,
     resume: Annotated[
-        bool, typer.Option("--resume", help="Continue the study in --out: skip finished runs, restart interrupted ones.")
+        bool,
+        typer.Option("--resume", help="Continue the study in --out: skip finished runs, restart interrupted ones."),
     ] = False,
 ) -> None:
     """Run a parameter study: one scenario run per parameter set on a Dask cluster, a table and plots."""
@@ -73,7 +75,7 @@ def study(
 
     try:
         client = (None if not pending else cluster.remote_client(scheduler) if scheduler
-                  else cluster.local_client(sizing))
+                  else cluster.local_client(sizing))  # type: ignore[arg-type]  # sized when local
     except (OSError, TimeoutError, ValueError) as e:
         if not found:  # a new study: no study.json left to block the rerun ("already holds a study")
             (out_dir / STUDY).unlink(missing_ok=True)

@@ -8,6 +8,7 @@ run (its last row) or a reduction over all rows: ``max(c)``, ``min(c)``, ``absma
 
 import json
 import re
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +19,9 @@ from tissuempm.scenarios.runner import HISTORY
 from tissuempm.study.schema import Outputs
 
 _STEP = re.compile(r"([^.\[\]]+)|\[(\d+)\]")
-_REDUCE = {"min": np.min, "max": np.max, "absmax": lambda c: np.max(np.abs(c)), "mean": np.mean}
+_REDUCE: dict[str, Callable[[np.ndarray], Any]] = {
+    "min": np.min, "max": np.max, "absmax": lambda c: np.max(np.abs(c)), "mean": np.mean
+}
 WOUND = Path("wound") / "wound.json"
 """The wound report of a run, inside its folder (as ``tissuempm wound`` writes it)."""
 

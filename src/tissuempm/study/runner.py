@@ -136,7 +136,7 @@ def run_study(
         return table
     tag = uuid.uuid4().hex[:8]
     futures = {
-        client.submit(execute, run, str(study.scenario), str(run_folder(out, run).resolve()), study.outputs,
+        client.submit(execute, run, str(study.scenario), str(run_folder(out, run).resolve()), study.outputs,  # type: ignore[union-attr]
                       study.device, progress, key=f"tissuempm-{study.name}-{run.name}-{tag}", pure=False): run
         for run in pending
     }

@@ -69,14 +69,14 @@ def parameter_values(p: Parameter) -> list[Any]:
     if p.values is not None:
         return list(p.values)
     space = np.geomspace if p.scale == "log" else np.linspace
-    return [float(v) for v in space(p.start, p.stop, p.num)]
+    return [float(v) for v in space(p.start, p.stop, p.num)]  # type: ignore[arg-type]  # all three set (schema)
 
 
 def _unit_points(study: Study) -> np.ndarray:
     d, n, seed = len(study.parameters), study.design.samples, study.design.seed
     if study.design.method == "lhs":
         return qmc.LatinHypercube(d=d, seed=seed).random(n)
-    return np.random.default_rng(seed).random((n, d))
+    return np.random.default_rng(seed).random((n, d))  # type: ignore[arg-type]  # samples set (schema)
 
 
 def plan(study: Study) -> list[RunSpec]:

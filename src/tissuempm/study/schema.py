@@ -29,8 +29,9 @@ import re
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
+from tissuempm.mpm.config import Threads
 from tissuempm.scenarios.units import UnitError, unit_scale
 
 
@@ -103,9 +104,10 @@ class Parameter(_Section):
         }
         given = [k for k, v in forms.items() if v]
         if len(given) != 1:
-            raise ValueError(f"give exactly one of values, start/stop/num or low/high (got {', '.join(given) or 'none'})")
+            raise ValueError("give exactly one of values, start/stop/num or low/high "
+                             f"(got {', '.join(given) or 'none'})")
         if given[0] == "start/stop/num":
-            if None in (self.start, self.stop, self.num):
+            if self.start is None or self.stop is None or self.num is None:
                 raise ValueError("start, stop and num go together")
             if self.scale == "log" and not (self.start > 0 and self.stop > 0):
                 raise ValueError("scale = 'log' needs start > 0 and stop > 0")
@@ -202,7 +204,7 @@ class Study(_Section):
     """The base scenario, resolved against the study file's folder by :func:`load_study`."""
     set: list[str] = []
     """``KEY=VALUE`` overrides applied to every run before the varied parameters."""
-    threads: Annotated[int, Field(ge=1, le=1024)] | Literal["auto"] = "auto"
+    threads: Threads | Literal["auto"] = "auto"
     """Solver threads per run; ``"auto"``: a local cluster's cores over its workers, 1 on an external one."""
     device: Literal["cpu", "cuda"] = "cpu"
     design: Design = Design()
@@ -242,36 +244,16 @@ class Study(_Section):
         return self
 
 
-def _where(loc: tuple[Any, ...]) -> str:
-    out = ""
-    for part in loc:
-        if isinstance(part, int):
-            out += f"[{part}]"
-        elif not str(part).startswith(("function-", "literal[", "int", "constrained")):
-            out += f".{part}" if out else str(part)
-    return out or "study"
-
-
 def load_study(path: str | Path) -> Study:
     """Read and validate a study file; the base scenario path is resolved against the file's folder.
 
-    Raises :class:`StudyError` with one line per bad key (``parameter[0].num: ...``).
+    Raises :class:`StudyError` with one line per bad key (``parameter[0].num: ...``,
+    :func:`tissuempm.config_files.load`).
     """
-    from tissuempm.safety import read_toml_file
+    from tissuempm.config_files import load
 
     path = Path(path)
-    data = read_toml_file(path, "study", StudyError)
-    try:
-        study = Study.model_validate(data)
-    except ValidationError as e:
-        lines = []
-        for err in e.errors():
-            msg = "unknown key" if err["type"] == "extra_forbidden" else err["msg"].removeprefix("Value error, ")
-            got = err.get("input")
-            shown = "" if isinstance(got, (dict, list)) or err["type"] == "missing" else f" (got {got!r})"
-            lines.append(f"{_where(err['loc'])}: {msg}{shown}")
-        raise StudyError(f"{path}: {len(lines)} error{'s' if len(lines) > 1 else ''} in study:\n  "
-                         + "\n  ".join(lines)) from None
+    study = load(path, Study, "study", StudyError)
     scenario = study.scenario if study.scenario.is_absolute() else path.parent / study.scenario
     if not scenario.is_file():
         raise StudyError(f"{path}: scenario: file {scenario} not found")
