@@ -320,9 +320,40 @@ class TwoSurfaceFailure(Material):
         return criteria
 
     @classmethod
+    def _build_intact(cls, t: WarpTypes) -> Any:
+        """``intact(old, gamma, eps_fiber, sig_m, sig_f, sig_v, prm, s_in, s_out, p) -> (sigma, code)``: the
+        failure code after this step (the stored ``old``, not BOTH, or a limit exceeded), the history row
+        (code, peak gamma, peak fiber strain) and the stress of the constituents still intact."""
+        s = t.scalar
+        mat33 = t.mat33
+
+        @wp.func
+        def intact(old: int, gam: s, efib: s, sig_m: mat33, sig_f: mat33, sig_v: mat33, prm: wp.array(dtype=s),
+                   s_in: wp.array2d(dtype=s), s_out: wp.array2d(dtype=s), p: int):  # fmt: skip
+            matrix = 0
+            if old == MATRIX or gam > prm[O_GAMMA]:
+                matrix = 1
+            fiber = 0
+            if old == FIBER or efib > prm[O_EPS]:
+                fiber = 1
+            code = matrix * MATRIX + fiber * FIBER
+            s_out[p, 0] = s(code)
+            s_out[p, 1] = wp.max(s_in[p, 1], gam)
+            s_out[p, 2] = wp.max(s_in[p, 2], efib)
+            sig = mat33()
+            if matrix == 0:
+                sig = sig + sig_m + sig_v
+            if fiber == 0:
+                sig = sig + sig_f
+            return sig, code
+
+        return intact
+
+    @classmethod
     def _build_stress(cls, t: WarpTypes) -> Any:
         parts = Weiss._build_parts(t)
         criteria = cls._build_criteria(t)
+        intact = cls._build_intact(t)
         s = t.scalar
         mat33 = t.mat33
 
@@ -344,21 +375,7 @@ class TwoSurfaceFailure(Material):
                 return mat33()
             sig_m, sig_f, sig_v, lam = parts(F, a0, prm)
             gam, efib = criteria(F, lam, prm)
-            matrix = 0
-            if old == MATRIX or old == BOTH or gam > prm[O_GAMMA]:
-                matrix = 1
-            fiber = 0
-            if old == FIBER or old == BOTH or efib > prm[O_EPS]:
-                fiber = 1
-            code = matrix * MATRIX + fiber * FIBER
-            s_out[p, 0] = s(code)
-            s_out[p, 1] = wp.max(s_in[p, 1], gam)
-            s_out[p, 2] = wp.max(s_in[p, 2], efib)
-            sig = mat33()
-            if matrix == 0:
-                sig = sig + sig_m + sig_v
-            if fiber == 0:
-                sig = sig + sig_f
+            sig, code = intact(old, gam, efib, sig_m, sig_f, sig_v, prm, s_in, s_out, p)
             return sig
 
         return stress
@@ -373,6 +390,7 @@ class TwoSurfaceFailure(Material):
         equal to :meth:`_build_criteria`'s to round-off; float32 laws use the criteria's float64 C."""
         parts_moduli = Weiss._build_parts_moduli(t)
         criteria = cls._build_criteria(t)
+        intact = cls._build_intact(t)
         s = t.scalar
         mat33 = t.mat33
         F64 = t.precision == "float64"
@@ -404,21 +422,7 @@ class TwoSurfaceFailure(Material):
                 efib = lam - s(1.0)
             else:  # float32 laws: the criteria's float64 eigen-solve of C = F^T F
                 gam, efib = criteria(F, lam, prm)
-            matrix = 0
-            if old == MATRIX or gam > prm[O_GAMMA]:
-                matrix = 1
-            fiber = 0
-            if old == FIBER or efib > prm[O_EPS]:
-                fiber = 1
-            code = matrix * MATRIX + fiber * FIBER
-            s_out[p, 0] = s(code)
-            s_out[p, 1] = wp.max(s_in[p, 1], gam)
-            s_out[p, 2] = wp.max(s_in[p, 2], efib)
-            sig = mat33()
-            if matrix == 0:
-                sig = sig + sig_m + sig_v
-            if fiber == 0:
-                sig = sig + sig_f
+            sig, code = intact(old, gam, efib, sig_m, sig_f, sig_v, prm, s_in, s_out, p)
             if code == BOTH:  # failed completely in this step
                 Kv = s(0.0)
                 G = s(0.0)
