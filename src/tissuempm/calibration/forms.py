@@ -96,20 +96,20 @@ def _elastic_params(form: str, terms: int, S: float) -> list[Param]:
         raise ValueError(f"model form {form!r} is not valid: choose one of {', '.join(FORMS)}")
     out: list[Param] = []
     series: list[dataclasses.Field] = []
+    at = 0  # where the term-by-term block of the tuple fields goes
     for f in get_material_class(form).parameter_fields():
         fit: Fit | None = f.metadata.get("fit")
         if fit is None:
             continue
         if is_sequence_field(f):
-            if not series:
-                out.append(None)  # type: ignore[arg-type]  # where the term-by-term block goes
+            at = at if series else len(out)
             series.append(f)
         elif fit.order <= terms:
             out.append(Param(f.name, f.metadata["unit"], *fit.bounds(S), fit.log, fit.modulus))
     block = [Param(f"{f.name}[{i}]", f.metadata["unit"], *f.metadata["fit"].bounds(S),  # type: ignore[call-arg]
                    f.metadata["fit"].log, f.metadata["fit"].modulus)  # (*Any: mypy cannot count the arguments)
              for i in range(terms) for f in series]
-    return [q for p in out for q in (block if p is None else [p])]
+    return out[:at] + block + out[at:]
 
 
 def _declared_start(form: str, name: str, S: float) -> float | None:
