@@ -215,6 +215,8 @@ def _parameter_rows(material, prefix: str = "") -> list[dict]:
 
     rows: list[dict] = []
     for f in dataclasses.fields(material):
+        if "derived" in f.metadata:  # computed from the parameters (base.derived), not one of them
+            continue
         value = getattr(material, f.name)
         if isinstance(value, Material):
             rows.append({"name": prefix + f.name, "value": value.kind, "unit": "", "doc": "composed law"})

@@ -21,11 +21,14 @@ def test_fbar_is_the_explicit_default_and_none_the_implicit_one(tmp_path):
     assert Runner(scenario(implicit), tmp_path / "c").solver.anti_locking == "none"
 
 
-def test_fbar_or_bulk_viscosity_refused_with_the_implicit_integrator():
-    for extra in ('anti_locking = "fbar"', "bulk_viscosity = {}"):
-        text = with_solver(f'integrator = "implicit"\n{extra}\n[solver.implicit]\ndt = "1 us"')
-        with pytest.raises(ScenarioError, match="explicit"):
-            scenario(text)
+def test_fbar_refused_and_bulk_viscosity_taken_with_the_implicit_integrator():
+    """F-bar has no implicit linearisation (refused by name); the bulk viscosity is supported by the implicit
+    integrator since 2026-12-02 (its values: tests/mpm/test_implicit_capabilities.py)."""
+    text = with_solver('integrator = "implicit"\nanti_locking = "fbar"\n[solver.implicit]\ndt = "1 us"')
+    with pytest.raises(ScenarioError, match="anti_locking = 'fbar' is available with integrator = 'explicit' only"):
+        scenario(text)
+    cfg = solver_config(scenario(with_solver('integrator = "implicit"\nbulk_viscosity = {}\n[solver.implicit]\ndt = "1 us"')))
+    assert (cfg.bulk_viscosity_linear, cfg.bulk_viscosity_quadratic) == (0.06, 1.5)
 
 
 def test_bulk_viscosity_defaults_and_range():

@@ -50,7 +50,7 @@ def slices_figure(run_dir: Path, report: BrainReport) -> plt.Figure:
     x, peak, vol = sel["x0"], sel["peak"], sel["volume"]
     centre = (vol[:, None] * x).sum(axis=0) / vol.sum()
     half = 0.5 * float(np.median(np.cbrt(vol)))
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.5), layout="constrained")
     vmax = max(float(peak.max()), 1e-12)
     for ax, (normal, (u, v), title) in zip(axes, [(0, (1, 2), "mid-sagittal (x = centre)"),
                                                   (2, (0, 1), "axial (z = centre)")]):  # fmt: skip

@@ -9,7 +9,10 @@ failure code other than ``FailureMode.INTACT``; laws without failure write ``NO_
 exerts on them; e.g. the grip force of a tensile test). Then, for each free rigid body (by its
 material's name; its contact force is its ``reaction_<material>`` columns),
 ``velocity_<material>_x/y/z`` [m/s] and ``position_<material>_x/y/z`` [m] (centre of mass of its
-particles; NaN once it has none left); for each removal reason (``outflow``, ``eroded``:
+particles; NaN once it has none left), and for a rotating one (``RigidMaterial.rotates``)
+``angular_velocity_<material>_x/y/z`` [rad/s] and ``torque_<material>_x/y/z`` [N m] (the last step's
+torque about its centre, :mod:`tissuempm.mpm.free_bodies`; NaN when the snapshot does not carry
+them); for each removal reason (``outflow``, ``eroded``:
 :mod:`tissuempm.mpm.removal`) what the removed deformable particles took with them so far,
 ``<reason>_count``, ``<reason>_mass`` [kg], ``<reason>_momentum_x/y/z`` [kg m/s] and
 ``<reason>_kinetic_energy`` [J]; ``removed_rigid_count`` (rigid-body particles removed) and
@@ -32,16 +35,20 @@ class HistoryLog:
     """Appends rows to ``path``; ``rigid`` maps rigid material index -> name, ``free`` lists the
     free rigid bodies among them, ``removed`` names the entries of a snapshot's ``removed`` array
     (``State.removed`` flattened: ``<reason>_<column>``); ``extra`` adds the columns of providers
-    with ``columns``, ``values(data)`` and ``restore(row)`` (called with the last row a restart keeps)."""
+    with ``columns``, ``values(data)`` and ``restore(row)`` (called with the last row a restart keeps);
+    ``rotating`` lists the free bodies that turn (their angular velocity and torque come from the
+    snapshot's ``free_angular_velocity`` and ``free_torque``: :meth:`FreeBodies.snapshot`)."""
 
     def __init__(self, path: str | Path, rigid: dict[int, str], free: tuple[int, ...] = (),
-                 removed: tuple[str, ...] = (), extra: tuple[Any, ...] = (), axisymmetric: bool = False):  # fmt: skip
+                 removed: tuple[str, ...] = (), extra: tuple[Any, ...] = (), axisymmetric: bool = False,
+                 rotating: tuple[int, ...] = ()):  # fmt: skip
         self.path = Path(path)
         self.axisymmetric = axisymmetric
         """Whether the snapshots are of an axisymmetric model (per-radian masses): the sums are
         then reported for the whole body of revolution (:func:`tissuempm.mpm.axisymmetric.whole_body`)."""
         self.rigid = dict(rigid)
         self.free = tuple(free)
+        self.rotating = tuple(rotating)
         self.removed = tuple(removed)
         xyz = ("x", "y", "z")
         self.columns = ["time", "step", "kinetic_energy", *(f"momentum_{c}" for c in xyz), "internal_work",
@@ -51,6 +58,8 @@ class HistoryLog:
         self.columns += [f"fixed_reaction_{c}" for c in xyz]
         for i in self.free:
             self.columns += [f"{q}_{self.rigid[i]}_{c}" for q in ("velocity", "position") for c in xyz]
+            if i in self.rotating:
+                self.columns += [f"{q}_{self.rigid[i]}_{c}" for q in ("angular_velocity", "torque") for c in xyz]
         self.columns += list(self.removed)
         self.columns += ["removed_rigid_count", "particles"]
         self.extra = tuple(extra)
@@ -78,9 +87,19 @@ class HistoryLog:
         for i in self.free:
             sel = mat == i
             if not np.any(sel):
-                out += [float("nan")] * 6
+                out += [float("nan")] * (12 if i in self.rotating else 6)
                 continue
-            out += list(v[sel][0]) + list((mass[sel, None] * x[sel]).sum(axis=0) / mass[sel].sum())
+            centre = (mass[sel, None] * x[sel]).sum(axis=0) / mass[sel].sum()
+            if i not in self.rotating:
+                out += list(v[sel][0]) + list(centre)
+                continue
+            omega = data.get("free_angular_velocity")
+            torque = data.get("free_torque")
+            nan3 = [float("nan")] * 3
+            # the velocity of its centre of mass (its particles' mean: v = V + omega x (x - c) differs among them)
+            out += list((mass[sel, None] * v[sel]).sum(axis=0) / mass[sel].sum()) + list(centre)
+            out += (nan3 if omega is None else list(np.asarray(omega, float)[i]))
+            out += (nan3 if torque is None else list(np.asarray(torque, float)[i]))
         out += list(np.asarray(data.get("removed", np.zeros(len(self.removed))), float).ravel()[: len(self.removed)])
         out += [int(data.get("removed_rigid", 0)), len(m)]
         if self.axisymmetric:

@@ -11,7 +11,11 @@ Solver-facing interface (all a solver needs to know about a law)
 ``pack()``
     1-D float array: header ``[rho0, K_wave, G_wave]`` followed by the law's own
     parameters (:data:`HEADER` entries; the law's data start at
-    :data:`PRM_OFFSET`).
+    :data:`PRM_OFFSET`). The layout is generated from the declaration
+    (:func:`packed_slots`): parameters, switches (:func:`option`, packed as codes),
+    derived values (:func:`derived`) and an inner law, in declaration order; a law's
+    Warp code reads them with the generated accessors ``P = cls.packed(t)``
+    (``P.K(prm)``, ``P.volumetric(prm) == VOLUMETRIC.LOG``), never by an index.
 ``state_vars`` / ``n_state`` / ``initial_state()``
     The law's history variables. The solver allocates an ``(n, n_state)`` array,
     double-buffers it and carries it without interpreting it.
@@ -61,20 +65,24 @@ Solver-facing interface (all a solver needs to know about a law)
 import dataclasses
 import functools
 import math
+import typing
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 from typing import Any, ClassVar
 
 import numpy as np
 import warp as wp
 
 from tissuempm.materials.tangent import numeric_tangent
+from tissuempm.materials.warp_interface import as_int, moduli_func, stress_func
 from tissuempm.precision import WarpTypes, warp_types
 
 HEADER: tuple[str, ...] = ("density", "K_wave", "G_wave")
-"""Names of the leading entries of every packed parameter vector."""
-PRM_DENSITY = 0
-PRM_K_WAVE = 1
-PRM_G_WAVE = 2
+"""Names of the leading entries of every packed parameter vector (Warp: ``P.density(prm)``, ...)."""
+PRM_DENSITY = HEADER.index("density")
+PRM_K_WAVE = HEADER.index("K_wave")
+PRM_G_WAVE = HEADER.index("G_wave")
 PRM_OFFSET = len(HEADER)
 """Index of the first law-specific entry of a packed parameter vector."""
 
@@ -116,6 +124,28 @@ def parameter(
     """
     metadata = {"unit": unit, "gt": gt, "ge": ge, "lt": lt, "le": le, "fit": fit, "doc": doc}
     return field(default=default, metadata=metadata)
+
+
+def option(default: str, *, doc: str = "") -> Any:
+    """Declare a switch as a dataclass field typed ``Literal[choice, ...]`` (the one list of its choices).
+
+    The value is checked against the choices (:class:`ParameterError` naming them) and packed as its
+    index; Warp code reads it as an ``int`` (``P.<name>(prm)``, :meth:`Material.packed`) and compares it
+    with the constants of :func:`tissuempm.materials.warp_interface.option_codes` of the same ``Literal``.
+    """
+    return field(default=default, metadata={"option": True, "doc": doc})
+
+
+def derived(value: Callable[[Any], float], *, doc: str = "") -> Any:
+    """Declare a packed value computed from the parameters (not given, not compared, not in ``to_dict``):
+    ``value(material)`` is evaluated once the parameters are checked and packed at the field's place in
+    the declaration (e.g. the Weiss fiber branch's intercept C6, a wrapper's history slot)."""
+    return field(init=False, repr=False, compare=False, metadata={"derived": value, "doc": doc})
+
+
+def option_choices(f: dataclasses.Field) -> tuple[str, ...]:
+    """The choices of an :func:`option` field, from its ``Literal`` annotation."""
+    return typing.get_args(f.type)
 
 
 @dataclass(frozen=True)
@@ -269,7 +299,15 @@ class Material:
                     _check_value(owner, f"{f.name}[{i}]", v, f.metadata)
             else:
                 _check_value(owner, f.name, value, f.metadata)
+        for f in dataclasses.fields(self):
+            choices = option_choices(f) if "option" in f.metadata else ()
+            if choices and getattr(self, f.name) not in choices:
+                raise ParameterError(f"{owner.split('[')[0]}.{f.name} = {getattr(self, f.name)!r}: "
+                                     f"valid are {', '.join(choices)}")
         self.check()
+        for f in dataclasses.fields(self):
+            if "derived" in f.metadata:
+                object.__setattr__(self, f.name, f.metadata["derived"](self))
 
     @classmethod
     def example(cls) -> "Material":
@@ -290,6 +328,8 @@ class Material:
         """Parameters as a plain dict with ``kind``; :func:`from_dict` inverts it."""
         out: dict[str, Any] = {"kind": self.kind}
         for f in dataclasses.fields(self):
+            if not f.init:  # derived values
+                continue
             v = getattr(self, f.name)
             if isinstance(v, Material):
                 v = v.to_dict()
@@ -319,23 +359,42 @@ class Material:
         return math.sqrt((K + 4.0 * G / 3.0) * J / self.density)
 
     def law_parameters(self) -> list[float]:
-        """The law's own packed parameters (after the header).
-
-        The default flattens the :func:`parameter` fields other than ``density``
-        in declaration order; a tuple field is written as its length followed
-        by its values. Laws with non-numeric options override this.
+        """The law's own packed parameters (after the header), generated from the declaration
+        (:func:`packed_slots`, in declaration order): a :func:`parameter` as its value, a tuple
+        parameter as its length followed by its values, an :func:`option` as the index of its
+        choice, a :func:`derived` value as computed, a composed law (a field holding a
+        :class:`Material`, first) as its own ``law_parameters()``. A composed law whose inner law is
+        declared as any :class:`Material` (so of unknown length) ends with the index of its own first
+        entry and a copy of the inner law's trailing indices (:func:`trailer_length`), so each finds
+        its block from the end.
         """
         out: list[float] = []
-        for f in self.parameter_fields():
-            if f.name == "density":
-                continue
-            v = getattr(self, f.name)
-            if isinstance(v, tuple):
+        inner: Material | None = None
+        for sl in packed_slots(type(self)):
+            v = getattr(self, sl.name)
+            if sl.kind == "law":
+                inner = v
+                out.extend(v.law_parameters())
+                start = PRM_OFFSET + len(out)
+            elif sl.kind == "sequence":
                 out.append(float(len(v)))
                 out.extend(float(x) for x in v)
+            elif sl.kind == "option":
+                out.append(float(sl.choices.index(v)))
             else:
                 out.append(float(v))
+        if inner is not None and _inner_length(type(self)) is None:
+            inner_prm = inner.law_parameters()
+            out.extend([float(start), *inner_prm[len(inner_prm) - trailer_length(type(inner)):]])
         return out
+
+    @classmethod
+    def packed(cls, t: WarpTypes) -> SimpleNamespace:
+        """Warp accessors of the packed parameters for the precision of ``t`` (cached; :func:`accessors`):
+        ``P.<field>(prm)`` the value of a parameter or derived value, the ``int`` code of an option;
+        ``P.<field>(prm, i)`` and ``P.<field>_count(prm)`` for a tuple parameter; ``P.density(prm)``,
+        ``P.K_wave(prm)``, ``P.G_wave(prm)`` for the header."""
+        return accessors(cls, t)
 
     def pack(self) -> np.ndarray:
         """Packed parameter vector ``[rho0, K_wave, G_wave, *law_parameters()]`` (float64)."""
@@ -404,19 +463,9 @@ class Material:
     def _build_stress_moduli(cls, t: WarpTypes) -> Any:
         stress = cls.stress_function(t.precision)
         moduli = cls.moduli_function(t.precision)
-        s = t.scalar
 
-        @wp.func
-        def stress_moduli(
-            F: t.mat33,
-            L: t.mat33,
-            a0: t.vec3,
-            prm: wp.array(dtype=s),
-            s_in: wp.array2d(dtype=s),
-            s_out: wp.array2d(dtype=s),
-            p: int,
-            dt: s,
-        ):
+        @stress_func(t)
+        def stress_moduli(F, L, a0, prm, s_in, s_out, p, dt):
             sig = stress(F, L, a0, prm, s_in, s_out, p, dt)
             K, G = moduli(F, a0, prm, s_out, p)
             return sig, K, G
@@ -507,14 +556,229 @@ def _cached_build(cls: type, method: str, precision: str) -> Any:
 @functools.cache
 def header_moduli(t: WarpTypes) -> Any:
     """``moduli(F, a0, prm, s_in, p) -> (K, G)`` reading the packed header (constant moduli)."""
+    H = header(t)
 
-    @wp.func
-    def moduli(
-        F: t.mat33, a0: t.vec3, prm: wp.array(dtype=t.scalar), s_in: wp.array2d(dtype=t.scalar), p: int
-    ):
-        return prm[PRM_K_WAVE], prm[PRM_G_WAVE]
+    @moduli_func(t)
+    def moduli(F, a0, prm, s_in, p):
+        return H.K_wave(prm), H.G_wave(prm)
 
     return moduli
+
+
+# ---------------------------------------------------------------------- packed layout (from the declaration)
+@dataclass(frozen=True)
+class Slot:
+    """One packed field of a law: ``kind`` is ``"value"`` (a :func:`parameter` or :func:`derived` number),
+    ``"sequence"`` (a tuple parameter: length, then values), ``"option"`` (the index of one of
+    ``choices``) or ``"law"`` (a composed law's inner law, packed first as its own parameters)."""
+
+    name: str
+    kind: str
+    choices: tuple[str, ...] = ()
+
+
+def _is_law_field(f: dataclasses.Field) -> bool:
+    return isinstance(f.type, type) and issubclass(f.type, Material)
+
+
+@functools.cache
+def packed_slots(cls: type) -> tuple[Slot, ...]:
+    """The packed fields of ``cls`` in declaration order (the layout of :meth:`Material.law_parameters`):
+    every field declared with :func:`parameter` (but ``density``, in the header), :func:`option` or
+    :func:`derived`, and a field holding a :class:`Material` (which must come first)."""
+    out: list[Slot] = []
+    for f in dataclasses.fields(cls):
+        if f.name == "density":
+            continue
+        if _is_law_field(f):
+            if out:
+                raise TypeError(f"{cls.__name__}.{f.name}: a composed law's inner law must be its first packed field")
+            out.append(Slot(f.name, "law"))
+        elif "option" in f.metadata:
+            out.append(Slot(f.name, "option", option_choices(f)))
+        elif "unit" in f.metadata:
+            out.append(Slot(f.name, "sequence" if is_sequence_field(f) else "value"))
+        elif "derived" in f.metadata:
+            out.append(Slot(f.name, "value"))
+    return tuple(out)
+
+
+def inner_class(cls: type, name: str) -> type:
+    """Class of the inner law in field ``name`` of a composed law ``cls``: its ``<name>_class`` (the
+    class a specialised wrapper was built for, e.g. ``Failure[Weiss].base_class``) or the annotation."""
+    f = next(f for f in dataclasses.fields(cls) if f.name == name)
+    return getattr(cls, f"{name}_class", None) or f.type
+
+
+@functools.cache
+def specialised(cls: type, name: str, inner: type, flags: tuple[str, ...] = ("anisotropic",)) -> type:
+    """The subclass of the composed law ``cls`` whose Warp functions wrap the class ``inner`` of its field
+    ``name`` (``Failure[ElasticPlastic]``: ``base_class = ElasticPlastic``; one per class, cached), with the
+    class ``flags`` (e.g. ``anisotropic``) of the inner class. A new instance takes it at the end of its
+    ``__post_init__``, so :func:`inner_class` and the accessors know the inner law's layout."""
+    label = f"{cls.__name__}[{inner.__name__}]"
+    attrs: dict[str, Any] = {f"{name}_class": inner, "__module__": cls.__module__, "__qualname__": label}
+    attrs.update({flag: bool(getattr(inner, flag, False)) for flag in flags})
+    return type(label, (cls,), attrs)
+
+
+def fixed_length(cls: type) -> int | None:
+    """Number of packed law parameters of ``cls`` when its declaration fixes it (no tuple parameter, no
+    inner law declared as any :class:`Material`), else None."""
+    n = 0
+    for sl in packed_slots(cls):
+        if sl.kind == "sequence":
+            return None
+        m = _inner_length(cls) if sl.kind == "law" else 1
+        if m is None:
+            return None
+        n += m
+    return n
+
+
+def _inner_length(cls: type) -> int | None:
+    """Fixed length of the inner law as declared (``base: Weiss``), None for any law (``base: Material``)."""
+    slots = packed_slots(cls)
+    if not slots or slots[0].kind != "law":
+        return None
+    declared = next(f for f in dataclasses.fields(cls) if f.name == slots[0].name).type
+    return None if declared is Material else fixed_length(declared)
+
+
+def trailer_length(cls: type) -> int:
+    """Number of block indices a packed vector of ``cls`` ends with: 1 + the inner law's for a composed
+    law whose inner law is declared as any :class:`Material` (:meth:`Material.law_parameters`), else 0."""
+    slots = packed_slots(cls)
+    if not slots or slots[0].kind != "law" or _inner_length(cls) is not None:
+        return 0
+    inner = inner_class(cls, slots[0].name)
+    if inner is Material:
+        raise NotImplementedError(f"{cls.__name__} needs its inner law: build it with the {slots[0].name} given")
+    return 1 + trailer_length(inner)
+
+
+@functools.cache
+def header(t: WarpTypes) -> SimpleNamespace:
+    """Warp accessors ``density(prm)``, ``K_wave(prm)``, ``G_wave(prm)`` of the packed header (:data:`HEADER`)."""
+    return SimpleNamespace(**{name: _value(t, i) for i, name in enumerate(HEADER)})
+
+
+@functools.cache
+def accessors(cls: type, t: WarpTypes) -> SimpleNamespace:
+    """Warp accessors of the packed parameters of ``cls`` (see :meth:`Material.packed`), generated from
+    :func:`packed_slots`. An index is a constant until a tuple parameter or an inner law of variable
+    length; from there it is a Warp function of ``prm`` (the inner law's block is followed by the own
+    block, whose start the packed vector holds :func:`trailer_length` entries from its end)."""
+    out = dict(vars(header(t)))
+    index: Any = PRM_OFFSET
+    for sl in packed_slots(cls):
+        if sl.kind == "law":
+            n = _inner_length(cls)
+            index = index + n if n is not None else _pointer(t, trailer_length(inner_class(cls, sl.name)))
+            continue
+        if sl.kind == "sequence":
+            out[sl.name] = _item(t, index)
+            out[f"{sl.name}_count"] = _code(t, index)
+            index = _after_sequence(t, index)
+            continue
+        out[sl.name] = _code(t, index) if sl.kind == "option" else _value(t, index)
+        index = index + 1 if isinstance(index, int) else _shift(t, index, 1)
+    return SimpleNamespace(**out)
+
+
+@functools.cache
+def _value(t: WarpTypes, index: Any) -> Any:
+    """``get(prm) -> prm[index]`` (a constant index, or a Warp function of ``prm``)."""
+    s = t.scalar
+    if isinstance(index, int):
+
+        @wp.func
+        def get(prm: wp.array(dtype=s)):
+            return prm[index]
+
+        return get
+
+    @wp.func
+    def get_at(prm: wp.array(dtype=s)):
+        return prm[index(prm)]
+
+    return get_at
+
+
+@functools.cache
+def _code(t: WarpTypes, index: Any) -> Any:
+    """``get(prm) -> int`` of the whole number stored at ``index`` (an option's code, a count)."""
+    value = _value(t, index)
+    to_int = as_int(t)
+
+    @wp.func
+    def get(prm: wp.array(dtype=t.scalar)):
+        return to_int(value(prm))
+
+    return get
+
+
+@functools.cache
+def _item(t: WarpTypes, index: Any) -> Any:
+    """``get(prm, i) -> prm[index + 1 + i]``: entry ``i`` of the tuple whose length is at ``index``."""
+    s = t.scalar
+    if isinstance(index, int):
+
+        @wp.func
+        def get(prm: wp.array(dtype=s), i: int):
+            return prm[index + 1 + i]
+
+        return get
+
+    @wp.func
+    def get_at(prm: wp.array(dtype=s), i: int):
+        return prm[index(prm) + 1 + i]
+
+    return get_at
+
+
+@functools.cache
+def _shift(t: WarpTypes, index: Any, n: int) -> Any:
+    """``at(prm) -> index(prm) + n``."""
+
+    @wp.func
+    def at(prm: wp.array(dtype=t.scalar)):
+        return index(prm) + n
+
+    return at
+
+
+@functools.cache
+def _after_sequence(t: WarpTypes, index: Any) -> Any:
+    """``at(prm)``: the index after the tuple whose length is at ``index`` (index + 1 + length)."""
+    count = _code(t, index)
+    start = index if not isinstance(index, int) else None
+
+    if start is None:
+
+        @wp.func
+        def at(prm: wp.array(dtype=t.scalar)):
+            return index + 1 + count(prm)
+
+        return at
+
+    @wp.func
+    def at_after(prm: wp.array(dtype=t.scalar)):
+        return start(prm) + 1 + count(prm)
+
+    return at_after
+
+
+@functools.cache
+def _pointer(t: WarpTypes, back: int) -> Any:
+    """``at(prm)``: the block start stored ``back + 1`` entries from the end of the packed vector."""
+    to_int = as_int(t)
+
+    @wp.func
+    def at(prm: wp.array(dtype=t.scalar)):
+        return to_int(prm[prm.shape[0] - 1 - back])
+
+    return at
 
 
 def copy_state(t: WarpTypes) -> Any:
@@ -548,7 +812,7 @@ def from_dict(data: dict[str, Any]) -> Material:
     """
     data = dict(data)
     cls = get_material_class(data.pop("kind"))
-    names = {f.name for f in dataclasses.fields(cls)}
+    names = {f.name for f in dataclasses.fields(cls) if f.init}
     unknown = sorted(set(data) - names)
     if unknown:
         raise ParameterError(

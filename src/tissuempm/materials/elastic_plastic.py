@@ -53,14 +53,11 @@ from typing import Any, ClassVar
 
 import warp as wp
 
-from tissuempm.materials.base import PRM_OFFSET, Material, StateVar, parameter
+from tissuempm.materials.base import Material, StateVar, parameter
 from tissuempm.materials.kinematics import kinematics
+from tissuempm.materials.warp_interface import stress_func
 from tissuempm.precision import WarpTypes
 
-O_K = PRM_OFFSET
-O_G = PRM_OFFSET + 1
-O_SY = PRM_OFFSET + 2
-O_H = PRM_OFFSET + 3
 SQRT_2_3 = math.sqrt(2.0 / 3.0)
 
 
@@ -93,22 +90,14 @@ class ElasticPlastic(Material):
         s = t.scalar
         mat33 = t.mat33
         sq23 = SQRT_2_3
+        P = cls.packed(t)
 
-        @wp.func
-        def stress(
-            F: t.mat33,
-            L: t.mat33,
-            a0: t.vec3,
-            prm: wp.array(dtype=s),
-            s_in: wp.array2d(dtype=s),
-            s_out: wp.array2d(dtype=s),
-            p: int,
-            dt: s,
-        ):
-            Kb = prm[O_K]
-            G = prm[O_G]
-            sy = prm[O_SY]
-            H = prm[O_H]
+        @stress_func(t)
+        def stress(F, L, a0, prm, s_in, s_out, p, dt):
+            Kb = P.K(prm)
+            G = P.G(prm)
+            sy = P.yield_stress(prm)
+            H = P.hardening(prm)
             J = wp.determinant(F)
             Fb = wp.pow(J, s(-1.0) / s(3.0)) * F
             Cpi = mat33(

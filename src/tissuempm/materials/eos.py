@@ -64,14 +64,11 @@ from typing import Any, ClassVar
 import numpy as np
 import warp as wp
 
-from tissuempm.materials.base import PRM_DENSITY, PRM_OFFSET, Material, ParameterError, StateVar, parameter
+from tissuempm.materials.base import Material, ParameterError, StateVar, parameter
 from tissuempm.materials.cards import data_lines, fixed_card
 from tissuempm.materials.kinematics import kinematics
+from tissuempm.materials.warp_interface import moduli_func, stress_func
 from tissuempm.precision import WarpTypes
-
-O_VISC = PRM_OFFSET
-"""Packed index of the viscosity; the law's own EOS constants follow."""
-O_EOS = PRM_OFFSET + 1
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -85,13 +82,6 @@ class _EquationOfState(Material):
     )
 
     viscosity: float = parameter("Pa s", default=0.0, ge=0.0, doc="Newtonian dynamic viscosity mu_v (seed eq. 56)")
-
-    def eos_parameters(self) -> list[float]:
-        """The law's packed EOS constants (after the viscosity)."""
-        raise NotImplementedError
-
-    def law_parameters(self) -> list[float]:
-        return [float(self.viscosity), *self.eos_parameters()]
 
     def initial_energy(self) -> float:
         """Specific internal energy at the reference state [J/kg]."""
@@ -119,23 +109,15 @@ class _EquationOfState(Material):
         s = t.scalar
         k = kinematics(t)
         update = cls._build_update(t)
+        P = cls.packed(t)
 
-        @wp.func
-        def stress(
-            F: t.mat33,
-            L: t.mat33,
-            a0: t.vec3,
-            prm: wp.array(dtype=s),
-            s_in: wp.array2d(dtype=s),
-            s_out: wp.array2d(dtype=s),
-            p: int,
-            dt: s,
-        ):
+        @stress_func(t)
+        def stress(F, L, a0, prm, s_in, s_out, p, dt):
             J = wp.determinant(F)
             Dd = k.dev(s(0.5) * (L + wp.transpose(L)))
-            sig_v = (s(2.0) * prm[O_VISC]) * Dd
+            sig_v = (s(2.0) * P.viscosity(prm)) * Dd
             # viscous heat per unit mass over the step: dt sigma_v : D / rho, rho = rho0 / J
-            q = dt * wp.ddot(sig_v, Dd) * J / prm[PRM_DENSITY]
+            q = dt * wp.ddot(sig_v, Dd) * J / P.density(prm)
             pr, e = update(J, s_in[p, 1], s_in[p, 0], q, prm)
             s_out[p, 0] = e
             s_out[p, 1] = J
@@ -148,8 +130,8 @@ class _EquationOfState(Material):
         s = t.scalar
         bulk = cls._build_bulk(t)
 
-        @wp.func
-        def moduli(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s), s_in: wp.array2d(dtype=s), p: int):
+        @moduli_func(t)
+        def moduli(F, a0, prm, s_in, p):
             return bulk(wp.determinant(F), s_in[p, 0], prm), s(0.0)
 
         return moduli
@@ -189,9 +171,6 @@ class IdealGas(_EquationOfState):
                 f"initial_pressure + ambient_pressure must be > 0 (valid range > {-self.ambient_pressure:g} Pa)"
             )
 
-    def eos_parameters(self) -> list[float]:
-        return [float(self.gamma), float(self.ambient_pressure)]
-
     def initial_energy(self) -> float:
         return (self.initial_pressure + self.ambient_pressure) / ((self.gamma - 1.0) * self.density)
 
@@ -211,23 +190,25 @@ class IdealGas(_EquationOfState):
     @classmethod
     def _build_update(cls, t: WarpTypes) -> Any:
         s = t.scalar
+        P = cls.packed(t)
 
         @wp.func
         def update(J: s, Jn: s, en: s, q: s, prm: wp.array(dtype=s)):
-            gm1 = prm[O_EOS] - s(1.0)
+            gm1 = P.gamma(prm) - s(1.0)
             e = en * wp.pow(Jn / J, gm1) + q
-            return gm1 * prm[PRM_DENSITY] / J * e - prm[O_EOS + 1], e
+            return gm1 * P.density(prm) / J * e - P.ambient_pressure(prm), e
 
         return update
 
     @classmethod
     def _build_bulk(cls, t: WarpTypes) -> Any:
         s = t.scalar
+        P = cls.packed(t)
 
         @wp.func
         def bulk(J: s, e: s, prm: wp.array(dtype=s)):
-            gamma = prm[O_EOS]
-            return wp.max(gamma * (gamma - s(1.0)) * prm[PRM_DENSITY] / J * e, s(0.0))
+            gamma = P.gamma(prm)
+            return wp.max(gamma * (gamma - s(1.0)) * P.density(prm) / J * e, s(0.0))
 
         return bulk
 
@@ -258,9 +239,6 @@ class UsUp(_EquationOfState):
     def example(cls) -> "UsUp":
         """Cerebrospinal fluid (Brewick et al. 2017 sec. 3.1.2): water Hugoniot, mu = 0.7 mPa s."""
         return cls(c0=1480.0, s=1.79, gamma0=1.65, viscosity=7.0e-4, density=1000.0)
-
-    def eos_parameters(self) -> list[float]:
-        return [float(self.c0), float(self.s), float(self.gamma0)]
 
     def abaqus_keywords(self) -> list[str]:
         out = ["*EOS, TYPE=USUP", *data_lines([self.c0, self.s, self.gamma0])]
@@ -294,13 +272,14 @@ class UsUp(_EquationOfState):
     @classmethod
     def _build_hugoniot(cls, t: WarpTypes) -> Any:
         s = t.scalar
+        P = cls.packed(t)
 
         @wp.func
         def hugoniot(J: s, prm: wp.array(dtype=s)):
             """(f, df/deta) of the Hugoniot term."""
-            K0 = prm[PRM_DENSITY] * prm[O_EOS] * prm[O_EOS]
-            sl = prm[O_EOS + 1]
-            g0 = prm[O_EOS + 2]
+            K0 = P.density(prm) * P.c0(prm) * P.c0(prm)
+            sl = P.s(prm)
+            g0 = P.gamma0(prm)
             eta = s(1.0) - J
             d = s(1.0) - sl * eta
             f = K0 * eta * (s(1.0) - s(0.5) * g0 * eta) / (d * d)
@@ -313,11 +292,12 @@ class UsUp(_EquationOfState):
     def _build_update(cls, t: WarpTypes) -> Any:
         s = t.scalar
         hugoniot = cls._build_hugoniot(t)
+        P = cls.packed(t)
 
         @wp.func
         def update(J: s, Jn: s, en: s, q: s, prm: wp.array(dtype=s)):
-            rho0 = prm[PRM_DENSITY]
-            g0 = prm[O_EOS + 2]
+            rho0 = P.density(prm)
+            g0 = P.gamma0(prm)
             fn, dfn = hugoniot(Jn, prm)
             f1, df1 = hugoniot(J, prm)
             pn = fn + g0 * rho0 * en
@@ -331,13 +311,14 @@ class UsUp(_EquationOfState):
     def _build_bulk(cls, t: WarpTypes) -> Any:
         s = t.scalar
         hugoniot = cls._build_hugoniot(t)
+        P = cls.packed(t)
 
         @wp.func
         def bulk(J: s, e: s, prm: wp.array(dtype=s)):
-            rho0 = prm[PRM_DENSITY]
-            g0 = prm[O_EOS + 2]
+            rho0 = P.density(prm)
+            g0 = P.gamma0(prm)
             f, df = hugoniot(J, prm)
             p = f + g0 * rho0 * e
-            return wp.max(J * (df + g0 * p), rho0 * prm[O_EOS] * prm[O_EOS])
+            return wp.max(J * (df + g0 * p), rho0 * P.c0(prm) * P.c0(prm))
 
         return bulk

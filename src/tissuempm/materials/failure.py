@@ -55,22 +55,26 @@ Example
 import dataclasses
 import enum
 import math
+import typing
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal
 
 import numpy as np
 import warp as wp
 
-from tissuempm.materials.base import PRM_OFFSET, Material, ParameterError, StateVar, parameter
+from tissuempm.materials.base import Material, ParameterError, StateVar, option, parameter
 from tissuempm.materials.tangent import rate_tangent
-from tissuempm.materials.weiss import N_LAW, Weiss
+from tissuempm.materials.warp_interface import as_int, moduli_func, option_codes, rate_func, stress_func
+from tissuempm.materials.weiss import Weiss
 from tissuempm.precision import WarpTypes
 
 NEVER = 1.0e30
 """A failure limit no strain reaches (:meth:`TwoSurfaceFailure.without_new_failure`)."""
 
 Convention = Literal["seed", "uintah"]
-CONVENTIONS: tuple[str, ...] = ("seed", "uintah")
+CONVENTIONS: tuple[str, ...] = typing.get_args(Convention)
+CONVENTION = option_codes(Convention)
+"""Codes of :data:`Convention` in Warp code (``CONVENTION.SEED``, ``CONVENTION.UINTAH``)."""
 
 
 class FailureMode(enum.IntEnum):
@@ -111,12 +115,6 @@ INTACT = wp.constant(int(FailureMode.INTACT))
 MATRIX = wp.constant(int(FailureMode.MATRIX))
 FIBER = wp.constant(int(FailureMode.FIBER))
 BOTH = wp.constant(int(FailureMode.BOTH))
-
-O_GAMMA = PRM_OFFSET + N_LAW
-"""Packed index of gamma_max (after the base Weiss layout)."""
-O_EPS = O_GAMMA + 1
-O_CONV = O_GAMMA + 2
-"""Convention code (0 seed, 1 uintah)."""
 
 
 TWO_SQRT3 = wp.constant(wp.float64(2.0 * math.sqrt(3.0)))
@@ -225,7 +223,7 @@ class TwoSurfaceFailure(Material):
     base: Weiss = field(default_factory=Weiss.example)
     gamma_max: float = parameter("1", default=0.25, gt=0.0, doc="matrix failure shear strain (eq. 7)")
     eps_max: float = parameter("1", default=0.4, gt=0.0, doc="fiber failure strain lam - 1 (eq. 8)")
-    convention: Convention = "seed"
+    convention: Convention = option("seed", doc="matrix shear measure: seed (E1 - E3)/2 or uintah E1 - E3")
 
     def without_new_failure(self) -> "TwoSurfaceFailure":
         """This law with both limits at 1e30 (finite in float32): the failure code of a particle's
@@ -247,10 +245,6 @@ class TwoSurfaceFailure(Material):
         return cls(base=Weiss.example(), gamma_max=0.25, eps_max=0.4)
 
     def check(self) -> None:
-        if self.convention not in CONVENTIONS:
-            raise ParameterError(
-                f"TwoSurfaceFailure.convention = {self.convention!r}: valid are {', '.join(CONVENTIONS)}"
-            )
         if self.density != self.base.density:
             raise ParameterError(
                 f"TwoSurfaceFailure.density = {self.density!r} differs from base.density = {self.base.density!r}: "
@@ -279,14 +273,6 @@ class TwoSurfaceFailure(Material):
     def wave_moduli(self) -> tuple[float, float]:
         return self.base.wave_moduli()
 
-    def law_parameters(self) -> list[float]:
-        return [
-            *self.base.law_parameters(),
-            self.gamma_max,
-            self.eps_max,
-            float(CONVENTIONS.index(self.convention)),
-        ]
-
     @classmethod
     def _build_moduli(cls, t: WarpTypes) -> Any:
         """Failure only removes stiffness: the intact base's moduli bound a partly failed particle;
@@ -294,10 +280,11 @@ class TwoSurfaceFailure(Material):
         crushed to a small J (where the intact bound grows like 1/J) cannot collapse the time step."""
         base = Weiss.moduli_function(t.precision)
         s = t.scalar
+        to_int = as_int(t)
 
-        @wp.func
-        def moduli(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s), s_in: wp.array2d(dtype=s), p: int):
-            if int(s_in[p, 0] + s(0.5)) == BOTH:
+        @moduli_func(t)
+        def moduli(F, a0, prm, s_in, p):
+            if to_int(s_in[p, 0]) == BOTH:
                 return s(0.0), s(0.0)
             return base(F, a0, prm, s_in, p)
 
@@ -307,13 +294,14 @@ class TwoSurfaceFailure(Material):
     def _build_criteria(cls, t: WarpTypes) -> Any:
         """``criteria(F, lam, prm) -> (gamma, eps_fiber)``: the two failure measures (float64 eigen-solve)."""
         s = t.scalar
+        P = cls.packed(t)
 
         @wp.func
         def criteria(F: t.mat33, lam: s, prm: wp.array(dtype=s)):
             F64 = wp.mat33d(F)
             C = wp.transpose(F64) * F64
             E13 = wp.float64(0.5) * eigen_spread(C)  # E1 - E3
-            if prm[O_CONV] < s(0.5):
+            if P.convention(prm) == CONVENTION.SEED:
                 E13 = wp.float64(0.5) * E13
             return s(E13), lam - s(1.0)
 
@@ -326,15 +314,16 @@ class TwoSurfaceFailure(Material):
         (code, peak gamma, peak fiber strain) and the stress of the constituents still intact."""
         s = t.scalar
         mat33 = t.mat33
+        P = cls.packed(t)
 
         @wp.func
         def intact(old: int, gam: s, efib: s, sig_m: mat33, sig_f: mat33, sig_v: mat33, prm: wp.array(dtype=s),
                    s_in: wp.array2d(dtype=s), s_out: wp.array2d(dtype=s), p: int):  # fmt: skip
             matrix = 0
-            if old == MATRIX or gam > prm[O_GAMMA]:
+            if old == MATRIX or gam > P.gamma_max(prm):
                 matrix = 1
             fiber = 0
-            if old == FIBER or efib > prm[O_EPS]:
+            if old == FIBER or efib > P.eps_max(prm):
                 fiber = 1
             code = matrix * MATRIX + fiber * FIBER
             s_out[p, 0] = s(code)
@@ -354,21 +343,12 @@ class TwoSurfaceFailure(Material):
         parts = Weiss._build_parts(t)
         criteria = cls._build_criteria(t)
         intact = cls._build_intact(t)
-        s = t.scalar
         mat33 = t.mat33
+        to_int = as_int(t)
 
-        @wp.func
-        def stress(
-            F: t.mat33,
-            L: t.mat33,
-            a0: t.vec3,
-            prm: wp.array(dtype=s),
-            s_in: wp.array2d(dtype=s),
-            s_out: wp.array2d(dtype=s),
-            p: int,
-            dt: s,
-        ):
-            old = int(s_in[p, 0] + s(0.5))
+        @stress_func(t)
+        def stress(F, L, a0, prm, s_in, s_out, p, dt):
+            old = to_int(s_in[p, 0])
             if old == BOTH:  # completely failed: stress-free whatever F (even J <= 0), history frozen
                 for k in range(3):
                     s_out[p, k] = s_in[p, k]
@@ -394,19 +374,12 @@ class TwoSurfaceFailure(Material):
         s = t.scalar
         mat33 = t.mat33
         F64 = t.precision == "float64"
+        P = cls.packed(t)
+        to_int = as_int(t)
 
-        @wp.func
-        def stress_moduli(
-            F: t.mat33,
-            L: t.mat33,
-            a0: t.vec3,
-            prm: wp.array(dtype=s),
-            s_in: wp.array2d(dtype=s),
-            s_out: wp.array2d(dtype=s),
-            p: int,
-            dt: s,
-        ):
-            old = int(s_in[p, 0] + s(0.5))
+        @stress_func(t)
+        def stress_moduli(F, L, a0, prm, s_in, s_out, p, dt):
+            old = to_int(s_in[p, 0])
             if old == BOTH:  # completely failed: stress-free whatever F (even J <= 0), history frozen, no wave speed
                 for k in range(3):
                     s_out[p, k] = s_in[p, k]
@@ -416,7 +389,7 @@ class TwoSurfaceFailure(Material):
             efib = s(0.0)
             if wp.static(F64):  # the shear measure from the stress's dev Bb: E1 - E3 = spread(Bb) / (2 J^(-2/3))
                 E13 = wp.float64(0.5) * dev_spread(Bd, dd / wp.float64(6.0)) / (r * r)
-                if prm[O_CONV] < s(0.5):
+                if P.convention(prm) == CONVENTION.SEED:
                     E13 = wp.float64(0.5) * E13
                 gam = E13
                 efib = lam - s(1.0)
@@ -443,32 +416,23 @@ class TwoSurfaceFailure(Material):
         is not differentiated (failure is a discontinuity)."""
         rate_parts = Weiss._build_rate_parts(t)
         criteria = cls._build_criteria(t)
-        s = t.scalar
         mat33 = t.mat33
+        P = cls.packed(t)
+        to_int = as_int(t)
 
-        @wp.func
-        def rate(
-            F: t.mat33,
-            L: t.mat33,
-            a0: t.vec3,
-            prm: wp.array(dtype=s),
-            s_in: wp.array2d(dtype=s),
-            s_out: wp.array2d(dtype=s),
-            p: int,
-            dt: s,
-            D: t.mat33,
-        ):
-            old = int(s_in[p, 0] + s(0.5))
+        @rate_func(t)
+        def rate(F, L, a0, prm, s_in, s_out, p, dt, D):
+            old = to_int(s_in[p, 0])
             if old == BOTH:
                 return mat33(), mat33()
             tm, dtm, tf, dtf, tv, dtv, lam = rate_parts(F, a0, prm, D)
             gam, efib = criteria(F, lam, prm)
             tau = mat33()
             dtau = mat33()
-            if not (old == MATRIX or gam > prm[O_GAMMA]):
+            if not (old == MATRIX or gam > P.gamma_max(prm)):
                 tau = tm + tv
                 dtau = dtm + dtv
-            if not (old == FIBER or efib > prm[O_EPS]):
+            if not (old == FIBER or efib > P.eps_max(prm)):
                 tau = tau + tf
                 dtau = dtau + dtf
             return tau, dtau

@@ -72,11 +72,13 @@ as unsymmetric (``symmetric_tangent = False``: -p I of a general base has no maj
 :meth:`Failure.without_new_failure` puts the limit out of reach for the implicit solver's Newton
 iterations.
 
-Packed parameters: header, the base's parameters unchanged, then the failure block
-``[criterion, limit, failed, measure slot, own slot]``, the index where that block starts and,
-last, a copy of the base's last packed entry (a Prony law finds its own block through the last
-entry, so it stays in place). Like :class:`~tissuempm.materials.viscoelastic.Viscoelastic`,
-each base class gets its own specialised subclass (``Failure[ElasticPlastic]``, cached).
+Packed parameters (generated from the declaration, :meth:`~tissuempm.materials.base.Material.law_parameters`):
+header, the base's parameters unchanged, then the failure block ``[criterion, limit, failed,
+measure slot, own slot]``; after a base of variable length (a tuple parameter, a Prony law) the
+index where that block starts and a copy of the base's trailing block indices (a Prony law finds
+its own block through the last entry, so it stays in place). Like
+:class:`~tissuempm.materials.viscoelastic.Viscoelastic`, each base class gets its own specialised
+subclass (``Failure[ElasticPlastic]``, cached).
 
 References
 ----------
@@ -95,38 +97,50 @@ Example
 import dataclasses
 import functools
 import math
+import typing
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal
 
 import numpy as np
 import warp as wp
 
-from tissuempm.materials.base import PRM_OFFSET, Material, ParameterError, StateVar, from_dict, parameter
+from tissuempm.materials.base import (
+    Material,
+    ParameterError,
+    StateVar,
+    derived,
+    from_dict,
+    option,
+    parameter,
+    specialised,
+)
 from tissuempm.materials.failure import NEVER, FailureMode, eigen_max, principal_green_strains
 from tissuempm.materials.kinematics import mat66
 from tissuempm.materials.tangent import numeric_tangent
+from tissuempm.materials.warp_interface import as_int, moduli_func, option_codes, stress_func
 from tissuempm.precision import WarpTypes
 
 Criterion = Literal["plastic_strain", "principal_strain", "green_strain", "principal_stress"]
-CRITERIA: tuple[str, ...] = ("plastic_strain", "principal_strain", "green_strain", "principal_stress")
+CRITERIA: tuple[str, ...] = typing.get_args(Criterion)
 """Failure measures, packed as their index (module docstring)."""
+CRITERION = option_codes(Criterion)
+"""Codes of :data:`Criterion` in Warp code (``CRITERION.PLASTIC_STRAIN``, ...)."""
 Residual = Literal["stress_free", "compression"]
-RESIDUALS: tuple[str, ...] = ("stress_free", "compression")
+RESIDUALS: tuple[str, ...] = typing.get_args(Residual)
 """Stress of a failed particle, packed as its index."""
+RESIDUAL = option_codes(Residual)
+"""Codes of :data:`Residual` in Warp code (``RESIDUAL.STRESS_FREE``, ``RESIDUAL.COMPRESSION``)."""
 PLASTIC_STRAIN_VAR = "eqps"
 """Name of the history variable the ``"plastic_strain"`` criterion reads."""
 FAILED = int(FailureMode.BOTH)
 """Code written to the ``failure`` slot of a failed particle (complete failure)."""
 
-C_PLASTIC = wp.constant(0)
-C_LOG = wp.constant(1)
-C_GREEN = wp.constant(2)
-C_STRESS = wp.constant(3)
 FAILED_CODE = wp.constant(FAILED)
 
-# offsets in the failure block (its start is the second-to-last packed entry)
-B_CRITERION, B_LIMIT, B_RESIDUAL, B_MEASURE_SLOT, B_OWN_SLOT = 0, 1, 2, 3, 4
-N_BLOCK = 5
+
+def _measure_slot(m: "Failure") -> float:
+    slot = m.base.state_layout().get(PLASTIC_STRAIN_VAR)
+    return float(slot.start) if slot is not None else -1.0
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -157,12 +171,14 @@ class Failure(Material):
 
     density: float | None = parameter("kg/m^3", default=None, gt=0.0, doc="reference density (= base.density)")
     base: Material = field(default=None)  # type: ignore[assignment]
-    criterion: Criterion = "principal_strain"
+    criterion: Criterion = option("principal_strain", doc="failure measure (module docstring)")
     limit: float = parameter(
         "1", default=1.0, gt=0.0, doc="failure value of the criterion: strain [1], or stress [Pa] for principal_stress"
     )
-    failed: Residual = "stress_free"
+    failed: Residual = option("stress_free", doc="stress of a failed particle: stress_free or compression")
     erosion: bool = False
+    measure_slot: float = derived(_measure_slot, doc="history slot of the base's eqps (-1: none)")
+    own_slot: float = derived(lambda m: float(m.base.n_state), doc="first history slot of the layer (failure)")
 
     def __post_init__(self) -> None:
         name = "Failure"
@@ -190,10 +206,6 @@ class Failure(Material):
 
     def check(self) -> None:
         name = "Failure"
-        if self.criterion not in CRITERIA:
-            raise ParameterError(f"{name}.criterion = {self.criterion!r}: valid are {', '.join(CRITERIA)}")
-        if self.failed not in RESIDUALS:
-            raise ParameterError(f"{name}.failed = {self.failed!r}: valid are {', '.join(RESIDUALS)}")
         if not isinstance(self.erosion, bool):
             raise ParameterError(f"{name}.erosion = {self.erosion!r}: must be true or false")
         if self.criterion == "plastic_strain" and PLASTIC_STRAIN_VAR not in self.base.state_layout():
@@ -279,19 +291,6 @@ class Failure(Material):
         fn = getattr(self.base, "long_term_moduli", None)
         return fn() if fn is not None else self.base.small_strain_moduli()
 
-    def law_parameters(self) -> list[float]:
-        base = list(self.base.law_parameters())
-        start = PRM_OFFSET + len(base)
-        slot = self.base.state_layout().get(PLASTIC_STRAIN_VAR)
-        block = [
-            float(CRITERIA.index(self.criterion)),
-            float(self.limit),
-            float(RESIDUALS.index(self.failed)),
-            float(slot.start) if slot is not None else -1.0,
-            float(self.base.n_state),
-        ]
-        return [*base, *block, float(start), float(self.base.pack()[-1])]
-
     # ------------------------------------------------------------------ Warp
     @classmethod
     def _build_stress(cls, t: WarpTypes) -> Any:
@@ -301,12 +300,13 @@ class Failure(Material):
     def _build_moduli(cls, t: WarpTypes) -> Any:
         base_moduli = cls._base().moduli_function(t.precision)
         s = t.scalar
+        P = cls.packed(t)
+        to_int = as_int(t)
 
-        @wp.func
-        def moduli(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s), s_in: wp.array2d(dtype=s), p: int):
-            o = int(prm[prm.shape[0] - 2])
-            if s_in[p, int(prm[o + B_OWN_SLOT])] > s(0.5):  # failed: no shear stiffness
-                if prm[o + B_RESIDUAL] < s(0.5) or not (wp.determinant(F) > s(0.0)):
+        @moduli_func(t)
+        def moduli(F, a0, prm, s_in, p):
+            if to_int(s_in[p, to_int(P.own_slot(prm))]) != 0:  # failed: no shear stiffness
+                if P.failed(prm) == RESIDUAL.STRESS_FREE or not (wp.determinant(F) > s(0.0)):
                     return s(0.0), s(0.0)
                 K, G = base_moduli(F, a0, prm, s_in, p)
                 return K, s(0.0)
@@ -319,24 +319,15 @@ class Failure(Material):
         stress, residual = _warp_parts(cls._base(), t)
         base_tangent = cls._base().tangent_function(t.precision)
         residual_tangent = numeric_tangent(t, residual)
-        s = t.scalar
         M66 = mat66(t)
+        P = cls.packed(t)
+        to_int = as_int(t)
 
-        @wp.func
-        def tangent(
-            F: t.mat33,
-            L: t.mat33,
-            a0: t.vec3,
-            prm: wp.array(dtype=s),
-            s_in: wp.array2d(dtype=s),
-            s_out: wp.array2d(dtype=s),
-            p: int,
-            dt: s,
-        ):
-            o = int(prm[prm.shape[0] - 2])
+        @stress_func(t)
+        def tangent(F, L, a0, prm, s_in, s_out, p, dt):
             sig = stress(F, L, a0, prm, s_in, s_out, p, dt)  # noqa: F841 (writes the failure state the update reaches at F)
-            if s_out[p, int(prm[o + B_OWN_SLOT])] > s(0.5):
-                if prm[o + B_RESIDUAL] < s(0.5):
+            if to_int(s_out[p, to_int(P.own_slot(prm))]) != 0:
+                if P.failed(prm) == RESIDUAL.STRESS_FREE:
                     return M66()
                 return residual_tangent(F, L, a0, prm, s_in, s_out, p, dt)
             return base_tangent(F, L, a0, prm, s_in, s_out, p, dt)
@@ -357,6 +348,8 @@ def _warp_parts(base_cls: type, t: WarpTypes) -> tuple[Any, Any]:
     base_stress = base_cls.stress_function(t.precision)
     s = t.scalar
     mat33 = t.mat33
+    P = _specialised(base_cls).packed(t)
+    to_int = as_int(t)
 
     @wp.func
     def pressure_only(sig: t.mat33):
@@ -365,60 +358,41 @@ def _warp_parts(base_cls: type, t: WarpTypes) -> tuple[Any, Any]:
         return -p * wp.identity(n=3, dtype=s)
 
     @wp.func
-    def measure(F: t.mat33, sig: t.mat33, prm: wp.array(dtype=s), s_out: wp.array2d(dtype=s), p: int, o: int):
-        crit = int(prm[o + B_CRITERION] + s(0.5))
-        if crit == C_PLASTIC:
-            return s_out[p, int(prm[o + B_MEASURE_SLOT])]
-        if crit == C_STRESS:
+    def measure(F: t.mat33, sig: t.mat33, prm: wp.array(dtype=s), s_out: wp.array2d(dtype=s), p: int):
+        crit = P.criterion(prm)
+        if crit == CRITERION.PLASTIC_STRAIN:
+            return s_out[p, to_int(P.measure_slot(prm))]
+        if crit == CRITERION.PRINCIPAL_STRESS:
             S = wp.mat33d(sig)
             return s(eigen_max(wp.float64(0.5) * (S + wp.transpose(S))))
         F64 = wp.mat33d(F)
         c1 = eigen_max(wp.transpose(F64) * F64)  # lam1^2
-        if crit == C_GREEN:
+        if crit == CRITERION.GREEN_STRAIN:
             return s(wp.float64(0.5) * (c1 - wp.float64(1.0)))
         return s(wp.float64(0.5) * wp.log(c1))
 
-    @wp.func
-    def stress(
-        F: t.mat33,
-        L: t.mat33,
-        a0: t.vec3,
-        prm: wp.array(dtype=s),
-        s_in: wp.array2d(dtype=s),
-        s_out: wp.array2d(dtype=s),
-        p: int,
-        dt: s,
-    ):
-        o = int(prm[prm.shape[0] - 2])
-        own = int(prm[o + B_OWN_SLOT])
-        old = s_in[p, own] > s(0.5)
+    @stress_func(t)
+    def stress(F, L, a0, prm, s_in, s_out, p, dt):
+        own = to_int(P.own_slot(prm))
+        old = to_int(s_in[p, own]) != 0
         if old and not (wp.determinant(F) > s(0.0)):  # failed and inverted: history frozen, stress-free
             for k in range(own + 2):
                 s_out[p, k] = s_in[p, k]
             return mat33()
         sig = base_stress(F, L, a0, prm, s_in, s_out, p, dt)
-        m = measure(F, sig, prm, s_out, p, o)
-        failed = old or m > prm[o + B_LIMIT]
+        m = measure(F, sig, prm, s_out, p)
+        failed = old or m > P.limit(prm)
         s_out[p, own + 1] = wp.max(s_in[p, own + 1], m)
         if failed:
             s_out[p, own] = s(FAILED_CODE)
-            if prm[o + B_RESIDUAL] < s(0.5):
+            if P.failed(prm) == RESIDUAL.STRESS_FREE:
                 return mat33()
             return pressure_only(sig)
         s_out[p, own] = s(0.0)
         return sig
 
-    @wp.func
-    def residual(
-        F: t.mat33,
-        L: t.mat33,
-        a0: t.vec3,
-        prm: wp.array(dtype=s),
-        s_in: wp.array2d(dtype=s),
-        s_out: wp.array2d(dtype=s),
-        p: int,
-        dt: s,
-    ):
+    @stress_func(t)
+    def residual(F, L, a0, prm, s_in, s_out, p, dt):
         return pressure_only(base_stress(F, L, a0, prm, s_in, s_out, p, dt))
 
     return stress, residual
@@ -426,19 +400,4 @@ def _warp_parts(base_cls: type, t: WarpTypes) -> tuple[Any, Any]:
 
 def _specialised(base_cls: type) -> type:
     """The ``Failure`` subclass whose Warp functions wrap ``base_cls`` (one per class, cached)."""
-    return _specialised_cached(base_cls)
-
-
-@functools.cache
-def _specialised_cached(base_cls: type) -> type:
-    return type(
-        f"Failure[{base_cls.__name__}]",
-        (Failure,),
-        {
-            "base_class": base_cls,
-            "anisotropic": bool(getattr(base_cls, "anisotropic", False)),
-            "rate_dependent": bool(getattr(base_cls, "rate_dependent", False)),
-            "__module__": __name__,
-            "__qualname__": f"Failure[{base_cls.__name__}]",
-        },
-    )
+    return specialised(Failure, "base", base_cls, ("anisotropic", "rate_dependent"))

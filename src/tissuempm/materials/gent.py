@@ -76,11 +76,12 @@ class Gent(InvariantHyperelastic):
     @classmethod
     def _build_derivatives(cls, t: WarpTypes) -> Any:
         s = t.scalar
+        P = cls.packed(t)
 
         @wp.func
-        def dW(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
-            r = wp.max(s(1.0) - (I1 - s(3.0)) / prm[o + 1], s(LOCK_FLOOR))
-            return s(0.5) * prm[o] / r, s(0.0)
+        def dW(I1: s, I2: s, prm: wp.array(dtype=s)):
+            r = wp.max(s(1.0) - (I1 - s(3.0)) / P.Jm(prm), s(LOCK_FLOOR))
+            return s(0.5) * P.G(prm) / r, s(0.0)
 
         return dW
 
@@ -88,10 +89,11 @@ class Gent(InvariantHyperelastic):
     def _build_second_derivatives(cls, t: WarpTypes) -> Any:
         """W11 = (G/2) / (Jm r^2), r = 1 - (I1b - 3)/Jm; W12 = W22 = 0."""
         s = t.scalar
+        P = cls.packed(t)
 
         @wp.func
-        def d2W(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
-            r = wp.max(s(1.0) - (I1 - s(3.0)) / prm[o + 1], s(LOCK_FLOOR))
-            return s(0.5) * prm[o] / (prm[o + 1] * r * r), s(0.0), s(0.0)
+        def d2W(I1: s, I2: s, prm: wp.array(dtype=s)):
+            r = wp.max(s(1.0) - (I1 - s(3.0)) / P.Jm(prm), s(LOCK_FLOOR))
+            return s(0.5) * P.G(prm) / (P.Jm(prm) * r * r), s(0.0), s(0.0)
 
         return d2W

@@ -63,23 +63,12 @@ from typing import Any, ClassVar
 import numpy as np
 import warp as wp
 
-from tissuempm.materials.base import (
-    PRM_G_WAVE,
-    PRM_K_WAVE,
-    PRM_OFFSET,
-    Fit,
-    ParameterError,
-    copy_state,
-    parameter,
-)
+from tissuempm.materials.base import Fit, copy_state, option, parameter
 from tissuempm.materials.cards import abaqus_D1, data_lines, fixed_card, poisson_ratio
-from tissuempm.materials.invariant_hyperelastic import (
-    LAW_OFFSET,
-    UncoupledHyperelastic,
-    incompressible_invariants,
-)
-from tissuempm.materials.kinematics import FIBER_KINEMATICS, FiberKinematics, kinematics
+from tissuempm.materials.invariant_hyperelastic import UncoupledHyperelastic, incompressible_invariants
+from tissuempm.materials.kinematics import FIBER, FiberKinematics, kinematics
 from tissuempm.materials.tangent import rate_tangent
+from tissuempm.materials.warp_interface import moduli_func, rate_func, stress_func
 from tissuempm.precision import WarpTypes
 
 _I1_FACTOR = {
@@ -92,10 +81,7 @@ _I1_FACTOR = {
 
 @dataclass(frozen=True, kw_only=True)
 class HGO(UncoupledHyperelastic):
-    """Holzapfel-Gasser-Ogden law, one dispersed fiber family along ``a0`` (module docstring).
-
-    Packed as ``[form, K, C10, k1, k2, kappa, fiber_kinematics code]`` after the header.
-    """
+    """Holzapfel-Gasser-Ogden law, one dispersed fiber family along ``a0`` (module docstring)."""
 
     kind = "hgo"
     anisotropic: ClassVar[bool] = True
@@ -110,7 +96,7 @@ class HGO(UncoupledHyperelastic):
                           fit=Fit(1e-6, 20.0, start=1.0))
     kappa: float = parameter("1", default=0.0, ge=0.0, le=1.0 / 3.0, doc="fiber dispersion, 0 aligned to 1/3 isotropic",
                              fit=Fit(0.0, 1.0 / 3.0, start=0.1))
-    fiber_kinematics: FiberKinematics = "isochoric"
+    fiber_kinematics: FiberKinematics = option("isochoric", doc="fiber invariants: isochoric (Cb) or full (C)")
     analytic_tangent: ClassVar[bool] = True
 
     @classmethod
@@ -119,16 +105,6 @@ class HGO(UncoupledHyperelastic):
         kappa = 0.333), made nearly incompressible (K = 1000 G0)."""
         c = 7.64e3
         return cls(C10=0.5 * c, k1=996.6e3, k2=524.6, kappa=0.333, K=1000.0 * c, density=1000.0)
-
-    def check(self) -> None:
-        super().check()
-        if self.fiber_kinematics not in FIBER_KINEMATICS:
-            raise ParameterError(
-                f"HGO.fiber_kinematics = {self.fiber_kinematics!r}: valid are {', '.join(FIBER_KINEMATICS)}"
-            )
-
-    def law_parameters(self) -> list[float]:
-        return [*super().law_parameters(), float(FIBER_KINEMATICS.index(self.fiber_kinematics))]
 
     # ------------------------------------------------------------------ NumPy
     def small_strain_moduli(self) -> tuple[float, float]:
@@ -237,22 +213,22 @@ class HGO(UncoupledHyperelastic):
         psi'' = 0 where the Macaulay bracket is closed (E <= 0)."""
         k = kinematics(t)
         s = t.scalar
-        o = LAW_OFFSET
+        P = cls.packed(t)
 
         @wp.func
         def fiber(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s)):
             J = wp.determinant(F)
             Bb, r = k.isochoric_b_root(F, J)
-            kappa = prm[o + 3]
+            kappa = P.kappa(prm)
             x = F * a0
             h = kappa * Bb + (s(1.0) - s(3.0) * kappa) * (r * r) * wp.outer(x, x)
-            if prm[o + 4] > s(0.5):
+            if P.fiber_kinematics(prm) == FIBER.FULL:
                 h = h / (r * r)
             E = wp.trace(h) - s(1.0)
             if E <= s(0.0):
                 return J, Bb, h, s(0.0), s(0.0), s(0.0)
-            k1 = prm[o + 1]
-            k2 = prm[o + 2]
+            k1 = P.k1(prm)
+            k2 = P.k2(prm)
             ex = wp.exp(k2 * E * E)
             return J, Bb, h, E, k1 * E * ex, k1 * (s(1.0) + s(2.0) * k2 * E * E) * ex
 
@@ -264,27 +240,17 @@ class HGO(UncoupledHyperelastic):
         fiber = cls._build_fiber(t)
         copy = copy_state(t)
         s = t.scalar
-        o_form = PRM_OFFSET
-        o = LAW_OFFSET
+        P = cls.packed(t)
 
-        @wp.func
-        def stress(
-            F: t.mat33,
-            L: t.mat33,
-            a0: t.vec3,
-            prm: wp.array(dtype=s),
-            s_in: wp.array2d(dtype=s),
-            s_out: wp.array2d(dtype=s),
-            p: int,
-            dt: s,
-        ):
+        @stress_func(t)
+        def stress(F, L, a0, prm, s_in, s_out, p, dt):
             J, Bb, h, E, dpsi, ddpsi = fiber(F, a0, prm)
-            U1 = k.volumetric_dUdJ(J, prm[o_form], prm[o_form + 1])
+            U1 = k.volumetric_dUdJ(J, P.volumetric(prm), P.K(prm))
             copy(s_in, s_out, p, 0, s_in.shape[1])
             tau_f = s(2.0) * dpsi * h
-            if prm[o + 4] < s(0.5):
+            if P.fiber_kinematics(prm) == FIBER.ISOCHORIC:
                 tau_f = k.dev(tau_f)
-            return (s(2.0) * prm[o] * k.dev(Bb) + tau_f) / J + U1 * wp.identity(n=3, dtype=s)
+            return (s(2.0) * P.C10(prm) * k.dev(Bb) + tau_f) / J + U1 * wp.identity(n=3, dtype=s)
 
         return stress
 
@@ -294,29 +260,18 @@ class HGO(UncoupledHyperelastic):
         k = kinematics(t)
         fiber = cls._build_fiber(t)
         s = t.scalar
-        o_form = PRM_OFFSET
-        o = LAW_OFFSET
+        P = cls.packed(t)
 
-        @wp.func
-        def rate(
-            F: t.mat33,
-            L: t.mat33,
-            a0: t.vec3,
-            prm: wp.array(dtype=s),
-            s_in: wp.array2d(dtype=s),
-            s_out: wp.array2d(dtype=s),
-            p: int,
-            dt: s,
-            D: t.mat33,
-        ):
+        @rate_func(t)
+        def rate(F, L, a0, prm, s_in, s_out, p, dt, D):
             J, Bb, h, E, dpsi, ddpsi = fiber(F, a0, prm)
             z = s(0.0)
-            tau, dtau = k.invariant_kirchhoff_rate(Bb, prm[o], z, z, z, z, D)
-            tv, dtv = k.volumetric_kirchhoff_rate(J, prm[o_form], prm[o_form + 1], D)
+            tau, dtau = k.invariant_kirchhoff_rate(Bb, P.C10(prm), z, z, z, z, D)
+            tv, dtv = k.volumetric_kirchhoff_rate(J, P.volumetric(prm), P.K(prm), D)
             tau = tau + tv
             dtau = dtau + dtv
             dh = D * h + h * D
-            if prm[o + 4] < s(0.5):
+            if P.fiber_kinematics(prm) == FIBER.ISOCHORIC:
                 dh = k.isochoric_rate(h, D)
                 tau = tau + s(2.0) * dpsi * k.dev(h)
                 dtau = dtau + s(2.0) * k.dev(ddpsi * wp.trace(dh) * h + dpsi * dh)
@@ -334,17 +289,16 @@ class HGO(UncoupledHyperelastic):
         kinematics), so the stable time step shrinks as the fibers stiffen exponentially."""
         fiber = cls._build_fiber(t)
         s = t.scalar
+        P = cls.packed(t)
 
-        @wp.func
-        def moduli(
-            F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s), s_in: wp.array2d(dtype=s), p: int
-        ):
+        @moduli_func(t)
+        def moduli(F, a0, prm, s_in, p):
             J, Bb, h, E, dpsi, ddpsi = fiber(F, a0, prm)
             g = wp.trace(h)
-            G = prm[PRM_G_WAVE]
+            G = P.G_wave(prm)
             if E > s(0.0):
                 G += (s(4.0) * ddpsi * g * g + s(2.0) * dpsi * g) / J
-            return prm[PRM_K_WAVE], G
+            return P.K_wave(prm), G
 
         return moduli
 

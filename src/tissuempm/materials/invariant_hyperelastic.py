@@ -35,20 +35,17 @@ and ``c : d = (1/J)(d tau - d tau - tau d)``; at F = I, c = K I (x) I + 2 G0 (I_
 
 
 from dataclasses import dataclass
-from typing import Any, ClassVar, Literal
+from typing import Any, ClassVar
 
 import numpy as np
 import warp as wp
 
-from tissuempm.materials.base import PRM_OFFSET, Material, ParameterError, copy_state, parameter
-from tissuempm.materials.kinematics import kinematics
+from tissuempm.materials.base import Material, ParameterError, copy_state, option, parameter
+from tissuempm.materials.kinematics import VOLUMETRIC_FORMS as VOLUMETRIC_FORMS  # re-exported
+from tissuempm.materials.kinematics import VolumetricForm, kinematics
 from tissuempm.materials.tangent import rate_tangent
+from tissuempm.materials.warp_interface import rate_func, stress_func
 from tissuempm.precision import WarpTypes
-
-VolumetricForm = Literal["abaqus", "log"]
-VOLUMETRIC_FORMS: tuple[str, ...] = ("abaqus", "log")
-LAW_OFFSET = PRM_OFFSET + 2
-"""First packed index of a law's own parameters (after volumetric form code and K)."""
 
 
 def volumetric_energy(J: np.ndarray, form: str, K: float) -> np.ndarray:
@@ -94,22 +91,13 @@ def incompressible_invariants(mode: str, lam: np.ndarray) -> tuple[np.ndarray, n
 
 @dataclass(frozen=True, kw_only=True)
 class UncoupledHyperelastic(Material):
-    """Base of uncoupled hyperelastic laws W_iso + U(J): the bulk modulus ``K``, the volumetric
-    form and their packing ``[form code, K, ...]`` (law data then start at :data:`LAW_OFFSET`)."""
+    """Base of uncoupled hyperelastic laws W_iso + U(J): the volumetric form and the bulk modulus
+    ``K``, packed first (``[form code, K, ...]``; a law's own fields follow in their declaration order)."""
 
     has_strain_energy: ClassVar[bool] = True
 
+    volumetric: VolumetricForm = option("abaqus", doc="volumetric energy U(J): abaqus K/2 (J-1)^2, log K/2 (ln J)^2")
     K: float = parameter("Pa", default=1.0e9, gt=0.0, doc="initial bulk modulus K0 (Abaqus D1 = 2/K)")
-    volumetric: VolumetricForm = "abaqus"
-
-    def check(self) -> None:
-        if self.volumetric not in VOLUMETRIC_FORMS:
-            raise ParameterError(
-                f"{type(self).__name__}.volumetric = {self.volumetric!r}: valid are {', '.join(VOLUMETRIC_FORMS)}"
-            )
-
-    def law_parameters(self) -> list[float]:
-        return [float(VOLUMETRIC_FORMS.index(self.volumetric)), *super().law_parameters()]
 
     def volumetric_energy(self, J: np.ndarray) -> np.ndarray:
         """U(J) [J/m^3] of this law's volumetric form."""
@@ -142,12 +130,12 @@ class InvariantHyperelastic(UncoupledHyperelastic):
 
     @classmethod
     def _build_derivatives(cls, t: WarpTypes) -> Any:
-        """``@wp.func dW(I1b, I2b, prm, o) -> (W1, W2)``; the law's parameters start at ``prm[o]``."""
+        """``@wp.func dW(I1b, I2b, prm) -> (W1, W2)``, reading the law's parameters with ``cls.packed(t)``."""
         raise NotImplementedError
 
     @classmethod
     def _build_second_derivatives(cls, t: WarpTypes) -> Any:
-        """``@wp.func d2W(I1b, I2b, prm, o) -> (W11, W12, W22)`` (second derivatives, for the tangent)."""
+        """``@wp.func d2W(I1b, I2b, prm) -> (W11, W12, W22)`` (second derivatives, for the tangent)."""
         raise NotImplementedError
 
     def shear_modulus(self) -> float:
@@ -195,25 +183,15 @@ class InvariantHyperelastic(UncoupledHyperelastic):
         dW = cls._build_derivatives(t)
         copy = copy_state(t)
         s = t.scalar
-        o_form = PRM_OFFSET
-        o_law = LAW_OFFSET
+        P = cls.packed(t)
 
-        @wp.func
-        def stress(
-            F: t.mat33,
-            L: t.mat33,
-            a0: t.vec3,
-            prm: wp.array(dtype=s),
-            s_in: wp.array2d(dtype=s),
-            s_out: wp.array2d(dtype=s),
-            p: int,
-            dt: s,
-        ):
+        @stress_func(t)
+        def stress(F, L, a0, prm, s_in, s_out, p, dt):
             J = wp.determinant(F)
             Bb, r = k.isochoric_b_root(F, J)
             I1, I2 = k.invariants12(Bb)
-            W1, W2 = dW(I1, I2, prm, o_law)
-            U1 = k.volumetric_dUdJ(J, prm[o_form], prm[o_form + 1])
+            W1, W2 = dW(I1, I2, prm)
+            U1 = k.volumetric_dUdJ(J, P.volumetric(prm), P.K(prm))
             copy(s_in, s_out, p, 0, s_in.shape[1])
             return k.invariant_cauchy(J, Bb, W1, W2) + U1 * wp.identity(n=3, dtype=s)
 
@@ -227,29 +205,17 @@ class InvariantHyperelastic(UncoupledHyperelastic):
         k = kinematics(t)
         dW = cls._build_derivatives(t)
         d2W = cls._build_second_derivatives(t)
-        s = t.scalar
-        o_form = PRM_OFFSET
-        o_law = LAW_OFFSET
+        P = cls.packed(t)
 
-        @wp.func
-        def rate(
-            F: t.mat33,
-            L: t.mat33,
-            a0: t.vec3,
-            prm: wp.array(dtype=s),
-            s_in: wp.array2d(dtype=s),
-            s_out: wp.array2d(dtype=s),
-            p: int,
-            dt: s,
-            D: t.mat33,
-        ):
+        @rate_func(t)
+        def rate(F, L, a0, prm, s_in, s_out, p, dt, D):
             J = wp.determinant(F)
             Bb, r = k.isochoric_b_root(F, J)
             I1, I2 = k.invariants12(Bb)
-            W1, W2 = dW(I1, I2, prm, o_law)
-            W11, W12, W22 = d2W(I1, I2, prm, o_law)
+            W1, W2 = dW(I1, I2, prm)
+            W11, W12, W22 = d2W(I1, I2, prm)
             tau, dtau = k.invariant_kirchhoff_rate(Bb, W1, W2, W11, W12, W22, D)
-            tv, dtv = k.volumetric_kirchhoff_rate(J, prm[o_form], prm[o_form + 1], D)
+            tv, dtv = k.volumetric_kirchhoff_rate(J, P.volumetric(prm), P.K(prm), D)
             return tau + tv, dtau + dtv
 
         return rate_tangent(t, rate)

@@ -7,17 +7,26 @@ Cauchy-Green tensor, ``Bb = J^(-2/3) B`` its isochoric part with invariants
 
 
 import functools
+import typing
 from types import SimpleNamespace
 from typing import Literal
 
 import warp as wp
 
+from tissuempm.materials.warp_interface import option_codes
 from tissuempm.precision import WarpTypes
 
 FiberKinematics = Literal["isochoric", "full"]
-FIBER_KINEMATICS: tuple[str, ...] = ("isochoric", "full")
+FIBER_KINEMATICS: tuple[str, ...] = typing.get_args(FiberKinematics)
 """Fiber stretch of anisotropic laws, packed as the index: ``"isochoric"`` uses J^(-1/3) |F a0|
 (the uncoupled form), ``"full"`` uses |F a0| = sqrt(I4) (Sansour 2008; Nolan et al. 2014)."""
+FIBER = option_codes(FiberKinematics)
+"""Codes of :data:`FiberKinematics` in Warp code (``FIBER.ISOCHORIC``, ``FIBER.FULL``)."""
+VolumetricForm = Literal["abaqus", "log"]
+VOLUMETRIC_FORMS: tuple[str, ...] = typing.get_args(VolumetricForm)
+"""Volumetric energies U(J) of uncoupled laws: ``"abaqus"`` K/2 (J - 1)^2, ``"log"`` K/2 (ln J)^2."""
+VOLUMETRIC = option_codes(VolumetricForm)
+"""Codes of :data:`VolumetricForm` in Warp code (``VOLUMETRIC.ABAQUS``, ``VOLUMETRIC.LOG``)."""
 
 
 @functools.cache
@@ -52,20 +61,20 @@ def kinematics(t: WarpTypes) -> SimpleNamespace:
         return (s(2.0) / J) * dev(A)
 
     @wp.func
-    def volumetric_dUdJ(J: t.scalar, form: t.scalar, K: t.scalar):
-        """dU/dJ of the volumetric energy: form 0 U = K/2 (J-1)^2 (Abaqus 1/D1 (J-1)^2, D1 = 2/K),
-        form 1 U = K/2 (ln J)^2."""
-        if form < s(0.5):
+    def volumetric_dUdJ(J: t.scalar, form: int, K: t.scalar):
+        """dU/dJ of the volumetric energy (``form`` a :data:`VOLUMETRIC` code): ABAQUS U = K/2 (J-1)^2
+        (Abaqus 1/D1 (J-1)^2, D1 = 2/K), LOG U = K/2 (ln J)^2."""
+        if form == VOLUMETRIC.ABAQUS:
             return K * (J - s(1.0))
         return K * wp.log(J) / J
 
     @wp.func
-    def volumetric_kirchhoff_rate(J: t.scalar, form: t.scalar, K: t.scalar, D: t.mat33):
+    def volumetric_kirchhoff_rate(J: t.scalar, form: int, K: t.scalar, D: t.mat33):
         """(tau_vol, d tau_vol/d eps) of tau_vol = J U'(J) I under F -> (I + eps D) F:
-        d tau_vol = J (U' + J U'') tr(D) I, with J (U' + J U'') = K J (2J - 1) (form 0) or K (form 1)."""
+        d tau_vol = J (U' + J U'') tr(D) I, with J (U' + J U'') = K J (2J - 1) (ABAQUS) or K (LOG)."""
         eye = wp.identity(n=3, dtype=s)
         m = K
-        if form < s(0.5):
+        if form == VOLUMETRIC.ABAQUS:
             m = K * J * (s(2.0) * J - s(1.0))
         return J * volumetric_dUdJ(J, form, K) * eye, m * wp.trace(D) * eye
 

@@ -36,7 +36,8 @@ Matching the local Voigt stiffness ``C = inv(compliance)`` (axis 3 = a0)::
 
 The isotropic law is the special case alpha = beta = 0, muL = muT = mu
 (``lam = E nu / ((1 + nu)(1 - 2 nu))``, ``mu = E / (2 (1 + nu))``); both
-classes pack ``[lam, muT, alpha, muL, beta]`` and share one stress function.
+classes pack ``[lam, muT, alpha, muL, beta]`` (derived values declared first, so the
+engineering constants each class declares follow them) and share one stress function.
 
 Engineering constants (Abaqus ``*ELASTIC, TYPE=ENGINEERING CONSTANTS``; seed 004
 table A3): ``nu_ij = -eps_j / eps_i`` under uniaxial stress along ``i``, so the
@@ -77,8 +78,9 @@ from typing import Any, ClassVar
 import numpy as np
 import warp as wp
 
-from tissuempm.materials.base import PRM_OFFSET, Fit, Material, ParameterError, copy_state, parameter
+from tissuempm.materials.base import Fit, Material, ParameterError, copy_state, derived, parameter
 from tissuempm.materials.cards import data_lines, fixed_card
+from tissuempm.materials.warp_interface import stress_func
 from tissuempm.precision import WarpTypes
 
 SYMMETRY_RTOL = 0.01
@@ -106,12 +108,15 @@ class _SaintVenantKirchhoff(Material):
 
     has_strain_energy: ClassVar[bool] = True
 
+    lam: float = derived(lambda m: float(m.spencer_coefficients()[0]), doc="Spencer lam [Pa] (packed)")
+    muT: float = derived(lambda m: float(m.spencer_coefficients()[1]), doc="Spencer muT [Pa] (packed)")
+    alpha: float = derived(lambda m: float(m.spencer_coefficients()[2]), doc="Spencer alpha [Pa] (packed)")
+    muL: float = derived(lambda m: float(m.spencer_coefficients()[3]), doc="Spencer muL [Pa] (packed)")
+    beta: float = derived(lambda m: float(m.spencer_coefficients()[4]), doc="Spencer beta [Pa] (packed)")
+
     def spencer_coefficients(self) -> tuple[float, float, float, float, float]:
         """(lam, muT, alpha, muL, beta) [Pa] of the structural-tensor stiffness."""
         raise NotImplementedError
-
-    def law_parameters(self) -> list[float]:
-        return [float(c) for c in self.spencer_coefficients()]
 
     def stiffness_tensor(self, a0: np.ndarray | None = None) -> np.ndarray:
         """Fourth-order stiffness C_ijkl [Pa] for fiber direction ``a0`` (global frame)."""
@@ -160,34 +165,20 @@ class _SaintVenantKirchhoff(Material):
     def _build_stress(cls, t: WarpTypes) -> Any:
         s = t.scalar
         copy = copy_state(t)
-        o = PRM_OFFSET
+        P = cls.packed(t)
 
-        @wp.func
-        def stress(
-            F: t.mat33,
-            L: t.mat33,
-            a0: t.vec3,
-            prm: wp.array(dtype=s),
-            s_in: wp.array2d(dtype=s),
-            s_out: wp.array2d(dtype=s),
-            p: int,
-            dt: s,
-        ):
-            lam = prm[o]
-            muT = prm[o + 1]
-            alpha = prm[o + 2]
-            muL = prm[o + 3]
-            beta = prm[o + 4]
+        @stress_func(t)
+        def stress(F, L, a0, prm, s_in, s_out, p, dt):
             I = wp.identity(n=3, dtype=s)
             E = s(0.5) * (wp.transpose(F) * F - I)
             trE = wp.trace(E)
             aEa = wp.dot(a0, E * a0)
             M = wp.outer(a0, a0)
             S = (
-                (lam * trE + alpha * aEa) * I
-                + s(2.0) * muT * E
-                + (alpha * trE + beta * aEa) * M
-                + s(2.0) * (muL - muT) * (M * E + E * M)
+                (P.lam(prm) * trE + P.alpha(prm) * aEa) * I
+                + s(2.0) * P.muT(prm) * E
+                + (P.alpha(prm) * trE + P.beta(prm) * aEa) * M
+                + s(2.0) * (P.muL(prm) - P.muT(prm)) * (M * E + E * M)
             )
             copy(s_in, s_out, p, 0, s_in.shape[1])
             return (F * S * wp.transpose(F)) / wp.determinant(F)

@@ -74,10 +74,11 @@ class MooneyRivlin(InvariantHyperelastic):
     @classmethod
     def _build_derivatives(cls, t: WarpTypes) -> Any:
         s = t.scalar
+        P = cls.packed(t)
 
         @wp.func
-        def dW(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
-            return prm[o], prm[o + 1]
+        def dW(I1: s, I2: s, prm: wp.array(dtype=s)):
+            return P.C10(prm), P.C01(prm)
 
         return dW
 
@@ -87,7 +88,7 @@ class MooneyRivlin(InvariantHyperelastic):
         s = t.scalar
 
         @wp.func
-        def d2W(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
+        def d2W(I1: s, I2: s, prm: wp.array(dtype=s)):
             return s(0.0), s(0.0), s(0.0)
 
         return d2W

@@ -53,10 +53,11 @@ class NeoHookean(InvariantHyperelastic):
     @classmethod
     def _build_derivatives(cls, t: WarpTypes) -> Any:
         s = t.scalar
+        P = cls.packed(t)
 
         @wp.func
-        def dW(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
-            return prm[o], s(0.0)
+        def dW(I1: s, I2: s, prm: wp.array(dtype=s)):
+            return P.C10(prm), s(0.0)
 
         return dW
 
@@ -66,7 +67,7 @@ class NeoHookean(InvariantHyperelastic):
         s = t.scalar
 
         @wp.func
-        def d2W(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
+        def d2W(I1: s, I2: s, prm: wp.array(dtype=s)):
             return s(0.0), s(0.0), s(0.0)
 
         return d2W

@@ -45,14 +45,11 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-from tissuempm.materials.base import PRM_OFFSET, Fit, ParameterError, copy_state, parameter
+from tissuempm.materials.base import Fit, ParameterError, copy_state, parameter
 from tissuempm.materials.cards import abaqus_D1, data_lines, fixed_card, poisson_ratio
-from tissuempm.materials.invariant_hyperelastic import (
-    LAW_OFFSET,
-    UncoupledHyperelastic,
-    shear_stretches,
-)
+from tissuempm.materials.invariant_hyperelastic import UncoupledHyperelastic, shear_stretches
 from tissuempm.materials.kinematics import kinematics
+from tissuempm.materials.warp_interface import stress_func
 from tissuempm.precision import WarpTypes
 
 MAX_TERMS = 6
@@ -167,20 +164,10 @@ class Ogden(UncoupledHyperelastic):
         copy = copy_state(t)
         s = t.scalar
         d = wp.float64
-        o_form = PRM_OFFSET
-        o_law = LAW_OFFSET
+        P = cls.packed(t)
 
-        @wp.func
-        def stress(
-            F: t.mat33,
-            L: t.mat33,
-            a0: t.vec3,
-            prm: wp.array(dtype=s),
-            s_in: wp.array2d(dtype=s),
-            s_out: wp.array2d(dtype=s),
-            p: int,
-            dt: s,
-        ):
+        @stress_func(t)
+        def stress(F, L, a0, prm, s_in, s_out, p, dt):
             # principal isochoric stretches in float64 (eig3 of Bb)
             Fd = wp.mat33d(F)
             Jd = wp.determinant(Fd)
@@ -188,11 +175,11 @@ class Ogden(UncoupledHyperelastic):
             Q = wp.mat33d()
             lb2 = wp.vec3d()
             wp.eig3(Bb, Q, lb2)
-            n = int(prm[o_law])
+            n = P.mu_count(prm)
             beta = wp.vec3d(d(0.0), d(0.0), d(0.0))
             for i in range(n):
-                m = d(prm[o_law + 1 + i])
-                a = d(prm[o_law + 2 + n + i])
+                m = d(P.mu(prm, i))
+                a = d(P.alpha(prm, i))
                 c = d(2.0) * m / a
                 h = d(0.5) * a
                 beta += c * wp.vec3d(wp.pow(lb2[0], h), wp.pow(lb2[1], h), wp.pow(lb2[2], h))
@@ -200,7 +187,7 @@ class Ogden(UncoupledHyperelastic):
             dev_beta = beta - wp.vec3d(mean, mean, mean)
             tau = Q * wp.diag(dev_beta) * wp.transpose(Q)
             J = wp.determinant(F)
-            U1 = k.volumetric_dUdJ(J, prm[o_form], prm[o_form + 1])
+            U1 = k.volumetric_dUdJ(J, P.volumetric(prm), P.K(prm))
             copy(s_in, s_out, p, 0, s_in.shape[1])
             return t.mat33(tau / Jd) + U1 * wp.identity(n=3, dtype=s)
 

@@ -91,16 +91,17 @@ class ReducedPolynomial(InvariantHyperelastic):
     @classmethod
     def _build_derivatives(cls, t: WarpTypes) -> Any:
         s = t.scalar
+        P = cls.packed(t)
 
         @wp.func
-        def dW(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
-            n = int(prm[o])
+        def dW(I1: s, I2: s, prm: wp.array(dtype=s)):
+            n = P.C_count(prm)
             x = I1 - s(3.0)
             W1 = s(0.0)
             xi = s(1.0)  # x^(i-1)
             order = s(1.0)  # i, kept as a scalar (no int -> float cast of the loop index)
             for i in range(n):
-                W1 += order * prm[o + 1 + i] * xi
+                W1 += order * P.C(prm, i) * xi
                 xi *= x
                 order += s(1.0)
             return W1, s(0.0)
@@ -111,16 +112,17 @@ class ReducedPolynomial(InvariantHyperelastic):
     def _build_second_derivatives(cls, t: WarpTypes) -> Any:
         """W11 = sum_{i >= 2} i (i - 1) Ci0 (I1b - 3)^(i-2), W12 = W22 = 0."""
         s = t.scalar
+        P = cls.packed(t)
 
         @wp.func
-        def d2W(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
-            n = int(prm[o])
+        def d2W(I1: s, I2: s, prm: wp.array(dtype=s)):
+            n = P.C_count(prm)
             x = I1 - s(3.0)
             W11 = s(0.0)
             xi = s(1.0)  # x^(i-2)
             order = s(2.0)  # i
             for i in range(1, n):
-                W11 += order * (order - s(1.0)) * prm[o + 1 + i] * xi
+                W11 += order * (order - s(1.0)) * P.C(prm, i) * xi
                 xi *= x
                 order += s(1.0)
             return W11, s(0.0), s(0.0)
@@ -186,13 +188,14 @@ class Polynomial(InvariantHyperelastic):
     @classmethod
     def _build_derivatives(cls, t: WarpTypes) -> Any:
         s = t.scalar
+        P = cls.packed(t)
 
         @wp.func
-        def dW(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
+        def dW(I1: s, I2: s, prm: wp.array(dtype=s)):
             x = I1 - s(3.0)
             y = I2 - s(3.0)
-            W1 = prm[o] + s(2.0) * prm[o + 2] * x + prm[o + 3] * y
-            W2 = prm[o + 1] + prm[o + 3] * x + s(2.0) * prm[o + 4] * y
+            W1 = P.C10(prm) + s(2.0) * P.C20(prm) * x + P.C11(prm) * y
+            W2 = P.C01(prm) + P.C11(prm) * x + s(2.0) * P.C02(prm) * y
             return W1, W2
 
         return dW
@@ -201,9 +204,10 @@ class Polynomial(InvariantHyperelastic):
     def _build_second_derivatives(cls, t: WarpTypes) -> Any:
         """W11 = 2 C20, W12 = C11, W22 = 2 C02."""
         s = t.scalar
+        P = cls.packed(t)
 
         @wp.func
-        def d2W(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
-            return s(2.0) * prm[o + 2], prm[o + 3], s(2.0) * prm[o + 4]
+        def d2W(I1: s, I2: s, prm: wp.array(dtype=s)):
+            return s(2.0) * P.C20(prm), P.C11(prm), s(2.0) * P.C02(prm)
 
         return d2W

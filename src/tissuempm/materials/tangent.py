@@ -55,6 +55,7 @@ from typing import Any
 import warp as wp
 
 from tissuempm.materials.kinematics import mat66
+from tissuempm.materials.warp_interface import rate_func, stress_func
 from tissuempm.precision import WarpTypes
 
 VOIGT: tuple[tuple[int, int], ...] = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))
@@ -130,18 +131,8 @@ def numeric_tangent(t: WarpTypes, stress: Any) -> Any:
     s = t.scalar
     h = s(FD_STEP[t.precision])
 
-    @wp.func
-    def rate(
-        F: t.mat33,
-        L: t.mat33,
-        a0: t.vec3,
-        prm: wp.array(dtype=s),
-        s_in: wp.array2d(dtype=s),
-        s_out: wp.array2d(dtype=s),
-        p: int,
-        dt: s,
-        D: t.mat33,
-    ):
+    @rate_func(t)
+    def rate(F, L, a0, prm, s_in, s_out, p, dt, D):
         eye = wp.identity(n=3, dtype=s)
         Fp = (eye + h * D) * F
         Fm = (eye - h * D) * F
@@ -161,20 +152,10 @@ def rate_tangent(t: WarpTypes, rate: Any) -> Any:
     """
     direction, put = voigt(t)
     lie = lie_column(t)
-    s = t.scalar
     M66 = mat66(t)
 
-    @wp.func
-    def tangent(
-        F: t.mat33,
-        L: t.mat33,
-        a0: t.vec3,
-        prm: wp.array(dtype=s),
-        s_in: wp.array2d(dtype=s),
-        s_out: wp.array2d(dtype=s),
-        p: int,
-        dt: s,
-    ):
+    @stress_func(t)
+    def tangent(F, L, a0, prm, s_in, s_out, p, dt):
         J = wp.determinant(F)
         C = M66()
         for K in range(6):

@@ -64,10 +64,11 @@ evaluated by its series for dt/tau < 1e-3. ``Sb0^n`` and ``pi0^n`` are stored.
 
 History layout (per particle): the elastic law's own slots first, then
 ``Sb0`` (6, Voigt order xx yy zz yz xz xy), ``pi0`` (1), ``H_1..H_N`` (6 N) and
-``h_1..h_N`` (N). Packed parameters: header, the elastic law's parameters
+``h_1..h_N`` (N). Packed parameters (generated from the declaration,
+:meth:`~tissuempm.materials.base.Material.law_parameters`): header, the elastic law's parameters
 (unchanged, so its stress function reads them where it expects), then the
-Prony block ``[N, g_1..g_N, tau_1..tau_N, k_1..k_N, n_elastic_state]`` and, in the
-last slot, the index where the Prony block starts.
+Prony block ``[N, g_1..g_N, N, tau_1..tau_N, N_k, k_1..k_N_k, n_elastic_state]`` (N_k = 0 without
+bulk terms) and, in the last slot, the index where the Prony block starts.
 
 Because the Warp stress function is built per class, each elastic class gets its
 own specialised subclass (``Viscoelastic[NeoHookean]``, cached); a new instance
@@ -98,7 +99,6 @@ Example
 """
 
 
-import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -107,8 +107,9 @@ from typing import Any, ClassVar
 import numpy as np
 import warp as wp
 
-from tissuempm.materials.base import Material, ParameterError, StateVar, from_dict, parameter
+from tissuempm.materials.base import Material, ParameterError, StateVar, derived, from_dict, parameter, specialised
 from tissuempm.materials.kinematics import kinematics
+from tissuempm.materials.warp_interface import as_int, stress_func
 from tissuempm.precision import WarpTypes
 
 MAX_TERMS = 6
@@ -179,7 +180,7 @@ def hereditary_nominal_stress(
 
 def _specialised(elastic_cls: type) -> type:
     """The ``Viscoelastic`` subclass whose Warp stress wraps ``elastic_cls`` (one per class, cached)."""
-    return _specialised_cached(elastic_cls)
+    return specialised(Viscoelastic, "elastic", elastic_cls)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -209,6 +210,7 @@ class Viscoelastic(Material):
     g: tuple[float, ...] = parameter("1", default=(0.5,), gt=0.0, lt=1.0, doc="normalised Prony moduli g_j")
     tau: tuple[float, ...] = parameter("s", default=(1.0,), gt=0.0, doc="relaxation times tau_j")
     k: tuple[float, ...] = parameter("1", default=(), ge=0.0, lt=1.0, doc="normalised bulk Prony moduli k_j")
+    elastic_slots: float = derived(lambda m: float(m.elastic.n_state), doc="history slots of the elastic law")
 
     def replace(self, **changes: Any) -> "Material":
         """A copy with some parameters changed; a new ``elastic`` brings its own density unless one is given."""
@@ -310,12 +312,6 @@ class Viscoelastic(Material):
         """The elastic law's (instantaneous, stiffest) wave moduli."""
         return self.elastic.wave_moduli()
 
-    def law_parameters(self) -> list[float]:
-        base = list(self.elastic.law_parameters())
-        start = 3 + len(base)  # header + elastic parameters
-        prony = [float(self.n_terms), *self.g, *self.tau, *self.k_values, float(self.elastic.n_state)]
-        return [*base, *prony, float(start)]
-
     # ------------------------------------------------------------------ closed forms
     def uniaxial_nominal_stress(
         self, stretch: Callable[[float], float], times: np.ndarray, breakpoints: tuple[float, ...] = ()
@@ -354,24 +350,13 @@ class Viscoelastic(Material):
         return cls.elastic_class.moduli_function(t.precision)
 
 
-@functools.cache
-def _specialised_cached(elastic_cls: type) -> type:
-    return type(
-        f"Viscoelastic[{elastic_cls.__name__}]",
-        (Viscoelastic,),
-        {
-            "elastic_class": elastic_cls,
-            "anisotropic": bool(getattr(elastic_cls, "anisotropic", False)),
-            "__module__": __name__,
-            "__qualname__": f"Viscoelastic[{elastic_cls.__name__}]",
-        },
-    )
-
 
 def _build_viscoelastic_stress(elastic_cls: type, t: WarpTypes) -> Any:
     s = t.scalar
     k = kinematics(t)
     elastic_stress = elastic_cls.stress_function(t.precision)
+    P = _specialised(elastic_cls).packed(t)
+    to_int = as_int(t)
 
     @wp.func
     def read_sym(a: wp.array2d(dtype=s), p: int, o: int):
@@ -402,21 +387,12 @@ def _build_viscoelastic_stress(elastic_cls: type, t: WarpTypes) -> Any:
             b = (s(1.0) - a) / x
         return a, b
 
-    @wp.func
-    def stress(
-        F: t.mat33,
-        L: t.mat33,
-        a0: t.vec3,
-        prm: wp.array(dtype=s),
-        s_in: wp.array2d(dtype=s),
-        s_out: wp.array2d(dtype=s),
-        p: int,
-        dt: s,
-    ):
+    @stress_func(t)
+    def stress(F, L, a0, prm, s_in, s_out, p, dt):
         sig0 = elastic_stress(F, L, a0, prm, s_in, s_out, p, dt)
-        o = int(prm[prm.shape[0] - 1])
-        n = int(prm[o])
-        so = int(prm[o + 1 + 3 * n])  # first own history slot (after the elastic law's)
+        n = P.g_count(prm)
+        nk = P.k_count(prm)  # 0 or n
+        so = to_int(P.elastic_slots(prm))  # first own history slot (after the elastic law's)
         J = wp.determinant(F)
         Fb = wp.pow(J, s(-1.0) / s(3.0)) * F
         Fbi = wp.inverse(Fb)
@@ -430,9 +406,11 @@ def _build_viscoelastic_stress(elastic_cls: type, t: WarpTypes) -> Any:
         Sb = t.mat33()
         pib = s(0.0)
         for j in range(n):
-            gj = prm[o + 1 + j]
-            kj = prm[o + 1 + 2 * n + j]
-            a, b = step_factors(dt, prm[o + 1 + n + j])
+            gj = P.g(prm, j)
+            kj = s(0.0)
+            if j < nk:
+                kj = P.k(prm, j)
+            a, b = step_factors(dt, P.tau(prm, j))
             oH = so + 7 + 6 * j
             H = a * read_sym(s_in, p, oH) + (gj * b) * dS
             h = a * s_in[p, so + 7 + 6 * n + j] + (kj * b) * dpi

@@ -97,32 +97,12 @@ from typing import Any, ClassVar
 import numpy as np
 import warp as wp
 
-from tissuempm.materials.base import PRM_OFFSET, Material, ParameterError, copy_state, parameter
-from tissuempm.materials.invariant_hyperelastic import (
-    VOLUMETRIC_FORMS,
-    VolumetricForm,
-    isochoric_invariants,
-    volumetric_energy,
-)
-from tissuempm.materials.kinematics import FIBER_KINEMATICS, FiberKinematics, kinematics
+from tissuempm.materials.base import Material, ParameterError, copy_state, derived, option, parameter
+from tissuempm.materials.invariant_hyperelastic import isochoric_invariants, volumetric_energy
+from tissuempm.materials.kinematics import FIBER, VOLUMETRIC, FiberKinematics, VolumetricForm, kinematics
 from tissuempm.materials.tangent import rate_tangent
+from tissuempm.materials.warp_interface import moduli_func, rate_func, stress_func
 from tissuempm.precision import WarpTypes
-
-# Packed layout of the law's parameters (absolute indices into ``pack()``).
-O_FORM = PRM_OFFSET
-"""Volumetric form code (index into VOLUMETRIC_FORMS: 0 abaqus, 1 log)."""
-O_K = PRM_OFFSET + 1
-O_C1 = PRM_OFFSET + 2
-O_C2 = PRM_OFFSET + 3
-O_C3 = PRM_OFFSET + 4
-O_C4 = PRM_OFFSET + 5
-O_C5 = PRM_OFFSET + 6
-O_LSTAR = PRM_OFFSET + 7
-O_C6 = PRM_OFFSET + 8
-O_KIN = PRM_OFFSET + 9
-"""Fiber kinematics code (0 isochoric, 1 full)."""
-N_LAW = 10
-"""Number of packed law parameters of :class:`Weiss` (wrappers append theirs after)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -140,8 +120,10 @@ class Weiss(Material):
     C5: float = parameter("Pa", default=100.0e3, ge=0.0, doc="modulus of the straightened fibers")
     lam_star: float = parameter("1", default=1.3, gt=1.0, doc="stretch at which the fibers are straight")
     K: float = parameter("Pa", default=100.0e3, gt=0.0, doc="bulk modulus")
-    volumetric: VolumetricForm = "log"
-    fiber_kinematics: FiberKinematics = "full"
+    volumetric: VolumetricForm = option("log", doc="volumetric energy U(J): log K/2 (ln J)^2 or abaqus K/2 (J-1)^2")
+    C6: float = derived(lambda m: m.C3 * np.expm1(m.C4 * (m.lam_star - 1.0)) - m.C5 * m.lam_star,
+                        doc="intercept of the linear fiber branch, C6 = C3 (exp(C4 (lam* - 1)) - 1) - C5 lam* [Pa]")
+    fiber_kinematics: FiberKinematics = option("full", doc="fiber stretch: full |F a0| or isochoric J^(-1/3) |F a0|")
 
     @classmethod
     def example(cls) -> "Weiss":
@@ -152,12 +134,6 @@ class Weiss(Material):
 
     def check(self) -> None:
         name = type(self).__name__
-        if self.volumetric not in VOLUMETRIC_FORMS:
-            raise ParameterError(f"{name}.volumetric = {self.volumetric!r}: valid are {', '.join(VOLUMETRIC_FORMS)}")
-        if self.fiber_kinematics not in FIBER_KINEMATICS:
-            raise ParameterError(
-                f"{name}.fiber_kinematics = {self.fiber_kinematics!r}: valid are {', '.join(FIBER_KINEMATICS)}"
-            )
         if self.C4 * (self.lam_star - 1.0) > 600.0:
             raise ParameterError(
                 f"{name}: C4 (lam_star - 1) = {self.C4 * (self.lam_star - 1.0):g} overflows exp(); "
@@ -165,11 +141,6 @@ class Weiss(Material):
             )
 
     # ------------------------------------------------------------------ fiber law (NumPy)
-    @property
-    def C6(self) -> float:
-        """Intercept of the linear fiber branch, C6 = C3 (exp(C4 (lam* - 1)) - 1) - C5 lam* [Pa]."""
-        return self.C3 * np.expm1(self.C4 * (self.lam_star - 1.0)) - self.C5 * self.lam_star
-
     def fiber_stress(self, lam: np.ndarray) -> np.ndarray:
         """Fiber stress T = lam dF2/dlam [Pa] of eq. 5 (zero for lam < 1)."""
         lam = np.asarray(lam, dtype=float)
@@ -301,33 +272,20 @@ class Weiss(Material):
         Gf = 0.75 * (ls * max(tan, self.C5) + 2.0 * float(self.fiber_stress(ls)))
         return self.K, 2.0 * (self.C1 + self.C2) + Gf
 
-    def law_parameters(self) -> list[float]:
-        return [
-            float(VOLUMETRIC_FORMS.index(self.volumetric)),
-            self.K,
-            self.C1,
-            self.C2,
-            self.C3,
-            self.C4,
-            self.C5,
-            self.lam_star,
-            self.C6,
-            float(FIBER_KINEMATICS.index(self.fiber_kinematics)),
-        ]
-
     @classmethod
     def _build_fiber(cls, t: WarpTypes) -> Any:
         """``fiber(lam, prm) -> (T, dT/dlam)``: fiber stress of eq. 5 and its tangent [Pa]."""
         s = t.scalar
+        P = cls.packed(t)
 
         @wp.func
         def fiber(lam: s, prm: wp.array(dtype=s)):
             if lam < s(1.0):
                 return s(0.0), s(0.0)
-            if lam < prm[O_LSTAR]:
-                e = wp.exp(prm[O_C4] * (lam - s(1.0)))
-                return prm[O_C3] * (e - s(1.0)), prm[O_C3] * prm[O_C4] * e
-            return prm[O_C5] * lam + prm[O_C6], prm[O_C5]
+            if lam < P.lam_star(prm):
+                e = wp.exp(P.C4(prm) * (lam - s(1.0)))
+                return P.C3(prm) * (e - s(1.0)), P.C3(prm) * P.C4(prm) * e
+            return P.C5(prm) * lam + P.C6(prm), P.C5(prm)
 
         return fiber
 
@@ -342,20 +300,21 @@ class Weiss(Material):
         k = kinematics(t)
         fiber = cls._build_fiber(t)
         s = t.scalar
+        P = cls.packed(t)
 
         @wp.func
         def parts(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s)):
             J = wp.determinant(F)
             Bb, r = k.isochoric_b_root(F, J)
             eye = wp.identity(n=3, dtype=s)
-            sig_m = k.invariant_cauchy(J, Bb, prm[O_C1], prm[O_C2])
-            sig_v = k.volumetric_dUdJ(J, prm[O_FORM], prm[O_K]) * eye
+            sig_m = k.invariant_cauchy(J, Bb, P.C1(prm), P.C2(prm))
+            sig_v = k.volumetric_dUdJ(J, P.volumetric(prm), P.K(prm)) * eye
             x = F * wp.normalize(a0)
             lam = wp.length(x)
             a = x / lam
             aa = wp.outer(a, a)
             sig_f = aa
-            if prm[O_KIN] < s(0.5):
+            if P.fiber_kinematics(prm) == FIBER.ISOCHORIC:
                 T, dT = fiber(lam * r, prm)
                 sig_f = (T / J) * k.dev(aa)
             else:
@@ -377,21 +336,22 @@ class Weiss(Material):
         k = kinematics(t)
         fiber = cls._build_fiber(t)
         s = t.scalar
+        P = cls.packed(t)
 
         @wp.func
         def parts_moduli(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s)):
             J = wp.determinant(F)
             Bb, r = k.isochoric_b_root(F, J)
             eye = wp.identity(n=3, dtype=s)
-            sig_m = k.invariant_cauchy(J, Bb, prm[O_C1], prm[O_C2])
+            sig_m = k.invariant_cauchy(J, Bb, P.C1(prm), P.C2(prm))
             I1 = wp.trace(Bb)
             Bd = k.dev(Bb)
             dd = wp.ddot(Bd, Bd)
             bmax = I1 / s(3.0) + wp.sqrt(s(2.0) / s(3.0) * dd)
-            Km = prm[O_K]
+            Km = P.K(prm)
             U1 = s(0.0)  # volumetric U'(J) and the bulk term of the moduli
             Kv = s(0.0)
-            if prm[O_FORM] > s(0.5):  # "log" (ln J once for both)
+            if P.volumetric(prm) == VOLUMETRIC.LOG:  # ln J once for both
                 lj = wp.log(J)
                 U1 = Km * lj / J
                 Kv = Km * (s(1.0) + s(2.0) * wp.abs(lj)) / J
@@ -405,14 +365,15 @@ class Weiss(Material):
             aa = wp.outer(a, a)
             sig_f = aa
             lf = lam
-            if prm[O_KIN] < s(0.5):
+            iso = P.fiber_kinematics(prm) == FIBER.ISOCHORIC
+            if iso:
                 lf = lam * r
             T, dT = fiber(lf, prm)
-            if prm[O_KIN] < s(0.5):
+            if iso:
                 sig_f = (T / J) * k.dev(aa)
             else:
                 sig_f = (T / J) * aa
-            G = s(2.0) * (prm[O_C1] + prm[O_C2] * I1) * bmax / J
+            G = s(2.0) * (P.C1(prm) + P.C2(prm) * I1) * bmax / J
             G = G + s(0.75) * (lf * dT + s(2.0) * T) / J
             return sig_m, sig_f, sig_v, lam, Kv, G, Bd, dd, r
 
@@ -422,19 +383,9 @@ class Weiss(Material):
     def _build_stress_moduli(cls, t: WarpTypes) -> Any:
         parts_moduli = cls._build_parts_moduli(t)
         copy = copy_state(t)
-        s = t.scalar
 
-        @wp.func
-        def stress_moduli(
-            F: t.mat33,
-            L: t.mat33,
-            a0: t.vec3,
-            prm: wp.array(dtype=s),
-            s_in: wp.array2d(dtype=s),
-            s_out: wp.array2d(dtype=s),
-            p: int,
-            dt: s,
-        ):
+        @stress_func(t)
+        def stress_moduli(F, L, a0, prm, s_in, s_out, p, dt):
             sig_m, sig_f, sig_v, lam, Kv, G, Bd, dd, r = parts_moduli(F, a0, prm)
             copy(s_in, s_out, p, 0, s_in.shape[1])
             return sig_m + sig_f + sig_v, Kv, G
@@ -445,19 +396,9 @@ class Weiss(Material):
     def _build_stress(cls, t: WarpTypes) -> Any:
         parts = cls._build_parts(t)
         copy = copy_state(t)
-        s = t.scalar
 
-        @wp.func
-        def stress(
-            F: t.mat33,
-            L: t.mat33,
-            a0: t.vec3,
-            prm: wp.array(dtype=s),
-            s_in: wp.array2d(dtype=s),
-            s_out: wp.array2d(dtype=s),
-            p: int,
-            dt: s,
-        ):
+        @stress_func(t)
+        def stress(F, L, a0, prm, s_in, s_out, p, dt):
             sig_m, sig_f, sig_v, lam = parts(F, a0, prm)
             copy(s_in, s_out, p, 0, s_in.shape[1])
             return sig_m + sig_f + sig_v
@@ -474,14 +415,15 @@ class Weiss(Material):
         k = kinematics(t)
         fiber = cls._build_fiber(t)
         s = t.scalar
+        P = cls.packed(t)
 
         @wp.func
         def rate_parts(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s), D: t.mat33):
             J = wp.determinant(F)
             Bb, r = k.isochoric_b_root(F, J)
             z = s(0.0)
-            tau_m, dtau_m = k.invariant_kirchhoff_rate(Bb, prm[O_C1], prm[O_C2], z, z, z, D)
-            tau_v, dtau_v = k.volumetric_kirchhoff_rate(J, prm[O_FORM], prm[O_K], D)
+            tau_m, dtau_m = k.invariant_kirchhoff_rate(Bb, P.C1(prm), P.C2(prm), z, z, z, D)
+            tau_v, dtau_v = k.volumetric_kirchhoff_rate(J, P.volumetric(prm), P.K(prm), D)
             x = F * wp.normalize(a0)
             lam = wp.length(x)
             a = x / lam
@@ -489,7 +431,7 @@ class Weiss(Material):
             ada = wp.dot(a, D * a)
             tau_f = aa
             dtau_f = aa
-            if prm[O_KIN] < s(0.5):
+            if P.fiber_kinematics(prm) == FIBER.ISOCHORIC:
                 lb = lam * r
                 T, dT = fiber(lb, prm)
                 tau_f = T * k.dev(aa)
@@ -507,20 +449,9 @@ class Weiss(Material):
     def _build_tangent(cls, t: WarpTypes) -> Any:
         """c = c_vol + c_matrix + c_fiber in closed form (module docstring)."""
         rate_parts = cls._build_rate_parts(t)
-        s = t.scalar
 
-        @wp.func
-        def rate(
-            F: t.mat33,
-            L: t.mat33,
-            a0: t.vec3,
-            prm: wp.array(dtype=s),
-            s_in: wp.array2d(dtype=s),
-            s_out: wp.array2d(dtype=s),
-            p: int,
-            dt: s,
-            D: t.mat33,
-        ):
+        @rate_func(t)
+        def rate(F, L, a0, prm, s_in, s_out, p, dt, D):
             tm, dtm, tf, dtf, tv, dtv, lam = rate_parts(F, a0, prm, D)
             return tm + tf + tv, dtm + dtf + dtv
 
@@ -549,23 +480,24 @@ class Weiss(Material):
         fiber = cls._build_fiber(t)
         k = kinematics(t)
         s = t.scalar
+        P = cls.packed(t)
 
-        @wp.func
-        def moduli(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s), s_in: wp.array2d(dtype=s), p: int):
+        @moduli_func(t)
+        def moduli(F, a0, prm, s_in, p):
             J = wp.determinant(F)
             Bb, r = k.isochoric_b_root(F, J)
             I1, I2 = k.invariants12(Bb)
             Bd = k.dev(Bb)
             bmax = I1 / s(3.0) + wp.sqrt(s(2.0) / s(3.0) * wp.ddot(Bd, Bd))
             lam = wp.length(F * wp.normalize(a0))
-            if prm[O_KIN] < s(0.5):
+            if P.fiber_kinematics(prm) == FIBER.ISOCHORIC:
                 lam = lam * r
             T, dT = fiber(lam, prm)
-            G = s(2.0) * (prm[O_C1] + prm[O_C2] * I1) * bmax / J
+            G = s(2.0) * (P.C1(prm) + P.C2(prm) * I1) * bmax / J
             G = G + s(0.75) * (lam * dT + s(2.0) * T) / J
-            Kv = prm[O_K] * wp.max(s(2.0) * J - s(1.0), s(1.0) / J)
-            if prm[O_FORM] > s(0.5):
-                Kv = prm[O_K] * (s(1.0) + s(2.0) * wp.abs(wp.log(J))) / J
+            Kv = P.K(prm) * wp.max(s(2.0) * J - s(1.0), s(1.0) / J)
+            if P.volumetric(prm) == VOLUMETRIC.LOG:
+                Kv = P.K(prm) * (s(1.0) + s(2.0) * wp.abs(wp.log(J))) / J
             return Kv, G
 
         return moduli

@@ -69,11 +69,12 @@ class Yeoh(InvariantHyperelastic):
     @classmethod
     def _build_derivatives(cls, t: WarpTypes) -> Any:
         s = t.scalar
+        P = cls.packed(t)
 
         @wp.func
-        def dW(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
+        def dW(I1: s, I2: s, prm: wp.array(dtype=s)):
             x = I1 - s(3.0)
-            return prm[o] + x * (s(2.0) * prm[o + 1] + s(3.0) * prm[o + 2] * x), s(0.0)
+            return P.C10(prm) + x * (s(2.0) * P.C20(prm) + s(3.0) * P.C30(prm) * x), s(0.0)
 
         return dW
 
@@ -81,9 +82,10 @@ class Yeoh(InvariantHyperelastic):
     def _build_second_derivatives(cls, t: WarpTypes) -> Any:
         """W11 = 2 C20 + 6 C30 (I1b - 3), W12 = W22 = 0."""
         s = t.scalar
+        P = cls.packed(t)
 
         @wp.func
-        def d2W(I1: s, I2: s, prm: wp.array(dtype=s), o: int):
-            return s(2.0) * prm[o + 1] + s(6.0) * prm[o + 2] * (I1 - s(3.0)), s(0.0), s(0.0)
+        def d2W(I1: s, I2: s, prm: wp.array(dtype=s)):
+            return s(2.0) * P.C20(prm) + s(6.0) * P.C30(prm) * (I1 - s(3.0)), s(0.0), s(0.0)
 
         return d2W

@@ -31,15 +31,16 @@ is used as it is: Nairn & Guilkey's axisymmetric GIMP modifies the weights withi
 width of the axis (they are exact for the r-weighted integrals); with uGIMP the error is
 confined to the first cells and vanishes with h.
 
-F-bar is not available (``anti_locking = "none"``, the default here): its cell-averaged volume change,
-stored back into each particle's F, scales the hoop stretch away from F_theta,theta = r / r0, a
-kinematic constraint that 3-D has no counterpart of, and the inconsistency accumulates as spurious
-deviatoric strain. Measured on the gelatin shot (0.5 mm cells, 2 x 2 particles per cell, 0.1 ms):
-equivalent plastic strain up to 0.90 at r > 8 mm from the tract with F-bar (2,283 particles
-eroded, out to r = 16 mm), 0.037 without (433 eroded, all within r = 2.1 mm); scaling only the
-meridian-plane block instead (hoop stretch kept) changes the deviatoric strain itself and was no
-better (1,519 eroded). An axisymmetric F-bar that keeps the compatible F and uses F-bar for the
-stress only (de Souza Neto et al. 1996) is left to do.
+F-bar (``anti_locking = "fbar"``; the default here stays ``"none"``) averages each cell's volume
+ratio J itself, weighted by the per-radian volumes V0 = r0 A0, rather than its change over the step
+(:mod:`tissuempm.mpm.volumetric`), and scales the whole F, hoop stretch included, so the isochoric
+part of every F stays the compatible one. The incremental average of 3-D, used here before, froze the
+volume differences that particles carry across cell boundaries; at K/G = 2,600 they drove spurious
+shear (gelatin shot, 0.5 mm cells, 2 x 2 particles per cell, 0.1 ms: plastic strain 0.90 beyond
+r = 8 mm and 2,283 particles eroded, out to r = 20 mm, against 433 within r = 2.6 mm without F-bar).
+With the total average: 413 eroded, all within r0 = 2.9 mm, at most 0.026 beyond 8 mm; Lame's
+pressurised thick-walled cylinder at K/G = 1000 is 3.7 % short with F-bar and 62 % without
+(``tests/mpm/test_axisymmetric_fbar.py``, docs/mpm.md).
 
 Contact normals come from the areal masses m_i / r_i (:func:`tissuempm.mpm.contact.contact_kernel`).
 Extensive quantities the solver reports (mass, momentum, energies, reaction forces, removed
@@ -57,9 +58,6 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-
-FBAR_AXISYMMETRIC = ("anti_locking = 'fbar' is not available for axisymmetric models: its cell-averaged volume "
-                     "change breaks the hoop stretch r / r0 (src/tissuempm/mpm/axisymmetric.py); use 'none'")
 
 
 def check_axisymmetric_model(grid: Any, boundaries: Sequence[Any]) -> None:

@@ -18,7 +18,9 @@ One step of size dt from the particle state at t_n:
 
    with the consistent tangent K_ab = sum_p V_p [(grad S_a)_j c_ijkl (grad S_b)_l
    + (grad S_a . sigma grad S_b) delta_ik] (c from each law's ``tangent_function``; Bonet & Wood
-   2008, eq. 9.35). ``dynamic=False`` is the quasi-static form: no inertia (R = f_ext - f_int);
+   2008, eq. 9.35). With ``SolverConfig.damping`` alpha the residual has the explicit solver's
+   mass-proportional term too, R - alpha M v', and the iteration matrix 2 alpha M / dt (a mode
+   decays as exp(-alpha t/2)). ``dynamic=False`` is the quasi-static form: no inertia (R = f_ext - f_int);
    the iteration matrix gets :data:`QS_REGULARISATION` times its largest diagonal entry on the
    diagonal, enough for the zero-energy modes of one particle per cell (the single-particle
    test) but not for the weakly held nodes at the fringe of a GIMP body, where the stiffness
@@ -34,6 +36,21 @@ failed particle sheds enters the next step's equilibrium (as in the explicit sol
 failure also acts from the step after it is detected). Re-evaluating failure at every iteration
 made the residual discontinuous: at the onset in the seed-resolution shear test Newton stalled at
 25 iterations with the step halved four times.
+
+Artificial bulk viscosity (``SolverConfig.bulk_viscosity_linear``, ``_quadratic``; the explicit
+solver's rule, :func:`tissuempm.mpm.kernels.material_kernels`): in compression each deformable
+particle carries the pressure q = rho h (C_Q h theta^2 - C_L c theta), sigma = sigma_law - q I,
+with the rate of volume change over the step theta = ln(J_n+1 / J_n) / dt (the explicit tr D to
+first order in dt) and the wave speed c of the state at the start of the step (lagged, so q
+depends on u through theta and J only). Its spatial tangent, from the Lie derivative of the
+Kirchhoff pressure J q = rho_0 h (C_Q h theta^2 - C_L c theta) with d theta = tr(grad du) / dt::
+
+    J c^q_ijkl = -rho_0 h (2 C_Q h theta - C_L c) / dt  delta_ij delta_kl
+                 + J q (delta_ik delta_jl + delta_il delta_jk)
+
+has the major symmetry and is added to the law's, so Newton keeps its quadratic rate; the
+dissipated energy V (q_n + q_n+1)/2 (-theta) dt goes to ``bulk_work`` and the law's internal work
+stays apart, as in the explicit solver.
 
 A step that does not converge in ``max_iterations`` (or makes a particle invert) is retried with
 half the step; the next step tries twice the last successful one, up to ``dt``. Below ``dt_min``
@@ -52,7 +69,8 @@ SciPy's default column ordering (``python benchmarks/implicit_solvers.py``, docs
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Annotated, Any, Literal, get_args
 
 import numpy as np
@@ -64,10 +82,11 @@ from tissuempm.mpm.config import Control, SolverConfig
 from tissuempm.mpm.errors import InstabilityError
 from tissuempm.mpm.implicit_kernels import implicit_kernels
 from tissuempm.mpm.kernels import SLOT
-from tissuempm.mpm.model import Model
+from tissuempm.mpm.model import Model, ParticleData
 from tissuempm.mpm.solver import ExplicitSolver
 from tissuempm.mpm.state import State
 from tissuempm.options import Time, check
+from tissuempm.precision import WarpTypes
 
 if TYPE_CHECKING:
     import scipy.sparse as sp
@@ -142,11 +161,105 @@ class NotConverged(Exception):
         self.position = position
 
 
-class ImplicitSolver(ExplicitSolver):
+@dataclass(frozen=True)
+class Capability:
+    """One row of :data:`IMPLICIT_CAPABILITIES`: an option of the model or of :class:`SolverConfig`,
+    what the implicit integrator takes of it and, for the rest, why it is refused.
+
+    ``refused(model, config, implicit)`` is the refused value the problem sets (None when it sets none);
+    the error then names ``option``, that value, ``valid``, the reason and ``remedy`` (what to change)."""
+
+    option: str
+    valid: str
+    reason: str = ""
+    refused: Callable[[Model, SolverConfig, ImplicitConfig], Any] | None = None
+    remedy: str = "use integrator = 'explicit'"
+
+
+def _free_body(model: Model, config: SolverConfig, implicit: ImplicitConfig) -> str | None:
+    free = [i for i in range(len(model.materials)) if model.is_rigid(i) and model.is_free(i)]
+    return f"True (free rigid bodies: materials {free})" if free else None
+
+
+IMPLICIT_CAPABILITIES: tuple[Capability, ...] = (
+    Capability("SolverConfig.bulk_viscosity_linear, bulk_viscosity_quadratic", "any (>= 0)",
+               "supported: q from the step's volume change, with its consistent tangent (module docstring)"),
+    Capability("SolverConfig.track", "any of tissuempm.mpm.tracking.TRACKED",
+               "supported: the peaks of each converged step"),
+    Capability("rigid drivers (RigidMaterial), fixed particles, GridBoundary, gravity, body acceleration, "
+               "failure, erosion, outflow", "all", "supported: prescribed nodal displacements u = dt v_c"),
+    Capability("SolverConfig.damping", "any (>= 0) with ImplicitConfig.dynamic = True",
+               "supported: alpha M v' in the Newmark residual, 2 alpha M / dt in the iteration matrix"),
+    Capability(
+        "SolverConfig.damping (with ImplicitConfig.dynamic = False)", "0",
+        "the quasi-static form has no inertia: a mass-proportional damping alpha M v would be a drag force "
+        "alpha M u / dt that moves the equilibrium",
+        lambda model, config, implicit: config.damping if config.damping > 0.0 and not implicit.dynamic else None,
+        "set damping = 0 or ImplicitConfig.dynamic = True ([solver.implicit] dynamic = true)",
+    ),
+    Capability("SolverConfig.cfl, dt_min_fraction, transfer", "any",
+               "not used: the step is ImplicitConfig.dt, halved on non-convergence; one P2G and one update a step"),
+    Capability(
+        "Model.contact (velocity fields)", "1 (no contact between bodies)",
+        "contact between bodies is a non-smooth nodal projection between velocity fields after each grid pass "
+        "(tissuempm.mpm.contact); inside Newton it is an inequality-constrained problem (active set or "
+        "augmented Lagrangian) that is not implemented",
+        lambda model, config, implicit: model.n_fields if model.n_fields > 1 else None,
+    ),
+    Capability(
+        "SolverConfig.grid", "'reset'",
+        "the grid without reset puts the stencils at the last reset's positions (State.xref, F_ref) and its "
+        "force on the effective stress (tissuempm.mpm.reference_grid); the implicit kinematics F = F_inc F_n "
+        "and the consistent tangent are written for stencils at x_n (a total-Lagrangian tangent is not implemented)",
+        lambda model, config, implicit: config.grid if config.grid != "reset" else None,
+    ),
+    Capability(
+        "RigidMaterial.free", "False (prescribed rigid drivers)",
+        "a free body's velocity is an unknown of the step, coupled to the reaction of every node it constrains: "
+        "Newton would need its degrees of freedom in the system (the explicit solver updates it after the step "
+        "from the summed reactions, a staggering that would cost the implicit step its stability)",
+        _free_body,
+    ),
+    Capability(
+        "Model.axisymmetric", "False",
+        "the implicit internal force and tangent are 3-D: the hoop force sigma_theta,theta S / r, the hoop stretch "
+        "u_r / r and their stiffness terms are not assembled",
+        lambda model, config, implicit: True if model.axisymmetric else None,
+    ),
+    Capability(
+        "SolverConfig.anti_locking", "'none' (the implicit default)",
+        "the F-bar cell average couples every particle of a cell: its linearisation reaches nodes beyond the "
+        "NB^3 blocks of a node's row and is not assembled, and without it Newton loses its quadratic rate",
+        lambda model, config, implicit: config.anti_locking if config.anti_locking not in (None, "none") else None,
+    ),
+    Capability("Control.rigid_rotation", "no rotation (translating drivers)",
+               "the implicit rigid constraint translates (u = dt V); a rotating driver needs the explicit solver "
+               "(refused by ImplicitSolver.step)"),
+)
+"""What the implicit integrator supports of the model's and :class:`SolverConfig`'s options, and
+why it refuses the rest (docs/mpm.md has the same table)."""
+
+
+def check_implicit(model: Model, config: SolverConfig, implicit: ImplicitConfig) -> None:
+    """Raise ``ValueError`` for the first option of ``model``, ``config`` or ``implicit`` that the implicit
+    integrator refuses (:data:`IMPLICIT_CAPABILITIES`), naming the option, its value, the valid
+    choices and the reason."""
+    for cap in IMPLICIT_CAPABILITIES:
+        value = cap.refused(model, config, implicit) if cap.refused is not None else None
+        if value is not None:
+            raise ValueError(f"{cap.option} = {value!r} is not available with the implicit integrator "
+                             f"(valid: {cap.valid}): {cap.reason}; {cap.remedy}")
+
+
+class ImplicitSolver:
     """Implicit MPM integrator of a :class:`Model` (see the module docstring).
 
-    Shares the explicit solver's model, boundary conditions, rigid drivers, controls (load
-    curves), state layout, diagnostics and checkpoints; only :meth:`step` differs.
+    The phases it shares with the explicit integrator are those of an :class:`ExplicitSolver` it
+    owns (:attr:`phases`): the model's arrays (materials, rigid drivers, grid faces), controls (load
+    curves), state allocation and layout, sorting, removal (outflow, erosion), checks, tracked peaks,
+    diagnostics and checkpoints; its own are the implicit P2G, the Newton solve, the assembly and
+    the particle update (:mod:`tissuempm.mpm.implicit_kernels`). What it supports of the options:
+    :data:`IMPLICIT_CAPABILITIES`.
 
     Example
     -------
@@ -159,31 +272,28 @@ class ImplicitSolver(ExplicitSolver):
     """No F-bar in the implicit solver (its tangent would need the F-bar linearisation)."""
 
     def __init__(self, model: Model, config: SolverConfig | None = None, implicit: ImplicitConfig | None = None):
-        super().__init__(model, config)
         if implicit is None:
             raise ValueError("ImplicitSolver needs an ImplicitConfig (at least its time step dt)")
-        if self.n_fields > 1:
-            raise ValueError("contact between bodies is not available with the implicit integrator: use 'explicit'")
-        if self.reference is not None:
-            raise ValueError("grid = 'no_reset' is available with the explicit integrator only")
-        if self.free is not None:
-            raise ValueError("free rigid bodies (rigid materials with free = true) need the explicit integrator")
-        if model.axisymmetric:
-            raise ValueError("axisymmetric models need the explicit integrator (the implicit tangent is 3-D only)")
-        if self.volumetric is not None or self.config.bulk_viscosity:  # none by default (default_anti_locking)
-            raise ValueError("anti_locking = 'fbar' and the bulk viscosity are available with the explicit "
-                             "integrator only")
+        config = config or SolverConfig()
+        check_implicit(model, config, implicit)
+        self.config = config
         self.implicit = implicit
-        self.extra_fields = ("acc",)
-        self.ik = implicit_kernels(self.t, self.config.shape)
+        # the shared phases; anti_locking None is the implicit default, "none"
+        self.phases = ExplicitSolver(model, replace(config, anti_locking=config.anti_locking or "none"))
+        ph = self.phases
+        ph.extra_fields = ("acc",) + (("bulk_q", "bulk_work") if config.bulk_viscosity else ()) + (
+            ph.tracker.fields if ph.tracker is not None else ())
+        self.ik = implicit_kernels(self.t, config.shape, config.bulk_viscosity)
+        self.wall_lo, self.wall_hi = ph.wall_lo, ph.wall_hi  # the wall planes of the particle update
         # Newton iterations see no new failure (a law's state switching between iterations makes the
         # residual discontinuous); the accepted step evaluates it at the converged displacement
         self._updates = []
-        for i, m, _, prm in self.laws:
+        for i, m, _, prm in ph.laws:
             frozen = m.without_new_failure()
-            self._updates.append((i, prm, prm if frozen is m else self._parameters(frozen), self.ik.update(type(m))))
-        # tangents with the major symmetry (hyperelastic laws, failure): the assembly does half the blocks
-        self._symmetric = int(all(m.tangent_is_symmetric() for _, m, _, _ in self.laws))
+            self._updates.append((i, prm, prm if frozen is m else ph._parameters(frozen), self.ik.update(type(m))))
+        # tangents with the major symmetry (hyperelastic laws, failure; the bulk viscosity's has it): the
+        # assembly does half the blocks
+        self._symmetric = int(all(m.tangent_is_symmetric() for _, m, _, _ in ph.laws))
         n, dev, t = self.n_nodes, self.device, self.t
         zs = lambda: wp.zeros(n, dtype=t.scalar, device=dev)  # noqa: E731
         zv = lambda: wp.zeros(n, dtype=t.vec3, device=dev)  # noqa: E731
@@ -193,6 +303,7 @@ class ImplicitSolver(ExplicitSolver):
         self.n_u, self.n_dv, self.n_vnew, self.n_anew = zv(), zv(), zv(), zv()
         self._K_chunks: list[wp.array] = []  # stiffness blocks per particle chunk (grown to the active nodes)
         self._f_chunks: list[wp.array] = []
+        self._F = self._L = self._sig = self._c = self._q = wp.empty(0, device=dev)  # the update's (:meth:`_scratch`)
         self.n_row = wp.full(n, -1, dtype=int, device=dev)
         _, ny, nz = model.grid.node_shape
         sx, sy = ny * nz, nz
@@ -204,6 +315,78 @@ class ImplicitSolver(ExplicitSolver):
         self.iterations = 0  # total Newton iterations
         self.retries = 0  # halved steps
         self.direct_fallbacks = 0  # CG solves handed to SuperLU
+        self.reactions = True
+        """Set by the run loop as for the explicit solver; the implicit step computes the constrained
+        particles' reaction shares at every step."""
+
+    # ------------------------------------------------------------------------------ shared phases
+    @property
+    def model(self) -> Model:
+        return self.phases.model
+
+    @property
+    def device(self) -> str:
+        return self.phases.device
+
+    @property
+    def t(self) -> WarpTypes:
+        """Warp types of the solver's precision."""
+        return self.phases.t
+
+    @property
+    def n_nodes(self) -> int:
+        return self.phases.n_nodes
+
+    @property
+    def anti_locking(self) -> str:
+        """The volumetric treatment in use: ``"none"``."""
+        return self.phases.anti_locking
+
+    @property
+    def extra_fields(self) -> tuple[str, ...]:
+        """The optional state fields of the implicit step (``acc``, the bulk viscosity's, tracked peaks)."""
+        return self.phases.extra_fields
+
+    def initial_state(self, particles: ParticleData) -> State:
+        """State at t = 0 (:meth:`ExplicitSolver.initial_state`), with zero particle accelerations."""
+        return self.phases.initial_state(particles)
+
+    def attach(self, state: State) -> None:
+        """Set a state up for this solver (:meth:`ExplicitSolver.attach`; :meth:`State.from_numpy`, restarts)."""
+        self.phases.attach(state)
+
+    def remove(self, state: State, code: np.ndarray) -> None:
+        """Take particles out of ``state`` (:meth:`ExplicitSolver.remove`)."""
+        self.phases.remove(state, code)
+
+    def removed_totals(self, state: State) -> dict[str, dict[str, Any]]:
+        """What left the computation so far, per reason (:meth:`ExplicitSolver.removed_totals`)."""
+        return self.phases.removed_totals(state)
+
+    def diagnostics(self, state: State) -> dict[str, Any]:
+        """The explicit solver's diagnostics (``grid_mass`` from the last implicit P2G) plus
+        ``newton_iterations`` (total), ``last_iterations``, ``halved_steps`` and ``direct_fallbacks``
+        (CG solves handed to SuperLU)."""
+        out = self.phases.diagnostics(state)
+        out.update(grid_mass=float(self.n_m.numpy().sum()) if state.step else float("nan"),
+                   newton_iterations=self.iterations, last_iterations=self.last_iterations, halved_steps=self.retries,
+                   direct_fallbacks=self.direct_fallbacks)  # fmt: skip
+        return out
+
+    def run(
+        self,
+        state: State,
+        t_end: float,
+        callback: Callable[[State], Any] | None = None,
+        callback_interval: float | None = None,
+        control: Control | Callable[[State], Control] | None = None,
+    ) -> State:
+        """Step until ``state.time >= t_end`` [s] (:meth:`ExplicitSolver.run`, with this solver's steps)."""
+        return ExplicitSolver.run_steps(self.step, state, t_end, callback, callback_interval, control)
+
+    def close(self) -> None:
+        """Shut the phases' thread pool down."""
+        self.phases.close()
 
     # ------------------------------------------------------------------------------ time step
     def stable_dt(self, state: State) -> float:
@@ -220,7 +403,7 @@ class ImplicitSolver(ExplicitSolver):
         if control is not None and any(any(w) for w, _ in control.rigid_rotation.values()):
             raise ValueError("Control.rigid_rotation: the implicit solver's rigid drivers translate only "
                              "(a rotating driver needs the explicit solver)")
-        self._apply_control(control)
+        self.phases._apply_control(control)
         h = dt if dt is not None else self.stable_dt(st)
         while True:
             try:
@@ -241,24 +424,28 @@ class ImplicitSolver(ExplicitSolver):
         st.speed_step = None
         self._dt_next = min(2 * h, self.implicit.dt)
         if self.config.sort_interval and st.step % self.config.sort_interval == 0:
-            self._sort(st)
+            self.phases._sort(st)
         return h
 
     # ------------------------------------------------------------------------------ pieces
+    def _common(self) -> list[Any]:
+        """The grid arguments of the kernels: origin, 1/h, cells per axis."""
+        ph = self.phases
+        return [ph.origin, self.t.scalar(1.0 / ph.h), ph.dims]
+
     def _nodal(self, st: State) -> dict[str, np.ndarray]:
         """P2G and the nodal pass; NumPy copies (views on the CPU) of the nodal fields."""
-        s = self.t.scalar
+        ph, s = self.phases, self.t.scalar
         for a in (self.n_m, self.n_cm, self.n_mv, self.n_ma, self.n_fb, self.n_cmv):
             a.zero_()
-        body = self._body if self._body is not None else st.vpic
-        common = [self.origin, s(1.0 / self.h), self.dims]
+        body = ph._body if ph._body is not None else st.vpic
         wp.launch(self.ik.p2g, dim=st.n, device=self.device, inputs=[
-            st.x, st.v, st.acc, st.mass, st.size, st.F, st.material, st.fixed, self.mat_rigid, self.rigid_vel,
-            body, int(self._body is not None), *common, self.n_m, self.n_mv, self.n_ma, self.n_fb, self.n_cm,
+            st.x, st.v, st.acc, st.mass, st.size, st.F, st.material, st.fixed, ph.mat_rigid, ph.rigid_vel,
+            body, int(ph._body is not None), *self._common(), self.n_m, self.n_mv, self.n_ma, self.n_fb, self.n_cm,
             self.n_cmv])  # fmt: skip
         wp.launch(self.ik.nodes, dim=self.n_nodes, device=self.device, inputs=[
-            self.n_m, self.n_mv, self.n_ma, self.n_cm, self.n_cmv, s(st.min_node_mass), self.dims,
-            len(self._bc_face), self.bc_kind, self.bc_vel, self.n_v, self.n_a, self.n_free, self.n_vc])  # fmt: skip
+            self.n_m, self.n_mv, self.n_ma, self.n_cm, self.n_cmv, s(st.min_node_mass), ph.dims,
+            len(ph._bc_face), ph.bc_kind, ph.bc_vel, self.n_v, self.n_a, self.n_free, self.n_vc])  # fmt: skip
         return {k: np.asarray(getattr(self, "n_" + k).numpy(), dtype=float)
                 for k in ("m", "v", "a", "fb", "free", "vc", "cm", "cmv")}
 
@@ -268,34 +455,35 @@ class ImplicitSolver(ExplicitSolver):
         """Particle update at nodal displacement ``u`` and the assembly: (f_int, K blocks). With
         ``stiffness`` (a Newton iteration) no particle fails anew; without (the accepted step) the
         laws' failure is evaluated."""
-        s = self.t.scalar
+        ph, s, cfg = self.phases, self.t.scalar, self.config
         self.n_u.assign(u.astype(self.t.numpy))
-        self._fill(st, "bad", st.n)
-        common = [self.origin, s(1.0 / self.h), self.dims]
+        ph._fill(st, "bad", st.n)
+        common = self._common()
+        bulk = [s(ph.h), s(cfg.bulk_viscosity_linear), s(cfg.bulk_viscosity_quadratic), self._q]
 
         def update(c: int, b: int, e: int) -> None:
             for i, prm, frozen, kern in self._updates:
-                self._launch(kern, e - b, [
+                ph._launch(kern, e - b, [
                     i, frozen if stiffness else prm, st.x, st.size, st.F, self.n_u, st.material, st.fiber, st.history,
                     st.history_next, *common, s(dt), self._F, self._L, self._sig, self._c, st.bad, b,
-                    c * SLOT], c)  # fmt: skip
+                    c * SLOT, *bulk], c)  # fmt: skip
 
         def assemble(c: int, b: int, e: int) -> None:
             f, Kb = self._f_chunks[c], self._K_chunks[c]
             f.zero_()
             if stiffness:
                 Kb.zero_()
-            self._launch(self.ik.assemble, e - b, [
-                st.x, st.size, st.F, self._F, self._sig, self._c, st.volume0, st.material, self.mat_rigid, *common,
+            ph._launch(self.ik.assemble, e - b, [
+                st.x, st.size, st.F, self._F, self._sig, self._c, st.volume0, st.material, ph.mat_rigid, *common,
                 int(stiffness), f, self.n_row, Kb, b, self._symmetric], ("assemble", c))  # fmt: skip
 
-        self._parallel([lambda c=c, b=b, e=e: update(c, b, e) for c, (b, e) in enumerate(st.chunks)])  # type: ignore[misc]
-        bad = int(self._slots(st, "bad").min())
+        ph._parallel([lambda c=c, b=b, e=e: update(c, b, e) for c, (b, e) in enumerate(st.chunks)])  # type: ignore[misc]
+        bad = int(ph._slots(st, "bad").min())
         if bad < st.n:
             x = st.x.numpy()[bad].astype(float)
             raise NotConverged(f"particle {int(st.id.numpy()[bad])} at {x.tolist()} inverted or its stress is not "
                                "finite", x)
-        self._parallel([lambda c=c, b=b, e=e: assemble(c, b, e) for c, (b, e) in enumerate(st.chunks)])  # type: ignore[misc]
+        ph._parallel([lambda c=c, b=b, e=e: assemble(c, b, e) for c, (b, e) in enumerate(st.chunks)])  # type: ignore[misc]
         f_int: np.ndarray = sum(np.asarray(f.numpy(), dtype=float) for f in self._f_chunks[: len(st.chunks)])  # type: ignore[assignment]
         if not stiffness:
             return f_int, None
@@ -356,6 +544,7 @@ class ImplicitSolver(ExplicitSolver):
     def _solve(self, st: State, dt: float) -> None:
         """One implicit step of size ``dt`` (raises :class:`NotConverged`)."""
         cfg = self.implicit
+        alpha = self.config.damping if cfg.dynamic else 0.0  # quasi-static: refused (check_implicit)
         nd = self._nodal(st)
         m = nd["m"]
         n = self.n_nodes
@@ -364,7 +553,8 @@ class ImplicitSolver(ExplicitSolver):
         idx[act] = np.arange(act.size)
         self._stiffness_rows(act, idx, len(st.chunks))
         free = nd["free"][act].astype(bool).ravel()  # active dofs, node-major
-        g = np.array([self._gravity[0], self._gravity[1], self._gravity[2]], dtype=float)
+        grav = self.phases._gravity
+        g = np.array([grav[0], grav[1], grav[2]], dtype=float)
         f_ext = (m[:, None] * g + nd["fb"])[act].ravel()
         v0, a0 = nd["v"][act].ravel(), nd["a"][act].ravel()
         mdof = np.repeat(m[act], 3)
@@ -379,11 +569,15 @@ class ImplicitSolver(ExplicitSolver):
             fi = f_int[act].ravel()
             a_new = 4.0 / dt**2 * (ua - dt * v0) - a0 if cfg.dynamic else np.zeros_like(ua)
             inertia = mdof * a_new
+            if alpha:  # mass-proportional damping alpha M v' (dynamic form only)
+                inertia = inertia + alpha * mdof * (v0 + 0.5 * dt * (a0 + a_new))
             R = f_ext - fi - inertia
             norm_f = max(np.linalg.norm(fi), np.linalg.norm(f_ext), np.linalg.norm(inertia), 1e-300)  # type: ignore[assignment]
             r_free = R[free]
             K = self._matrix(blocks, act, idx)[free][:, free]  # type: ignore[arg-type]  # stiffness=True: blocks
             reg = 4.0 / dt**2 * mdof[free] if cfg.dynamic else QS_REGULARISATION * np.abs(K.diagonal()).max()
+            if alpha:  # d(alpha M v')/du = 2 alpha M / dt
+                reg = reg + 2.0 * alpha / dt * mdof[free]
             K.setdiag(K.diagonal() + reg)  # every active node couples to itself: no new entries
             du = self._linear_solve(K, r_free)
             ua[free] += du
@@ -412,12 +606,17 @@ class ImplicitSolver(ExplicitSolver):
         else:
             a_new = np.zeros_like(ua)
             v_new = ua / dt
-        self._accept(st, dt, act, u, v_new, a_new, v0, f_ext - fi - mdof * a_new, nd)
+        reaction = f_ext - fi - mdof * a_new
+        if alpha:
+            reaction = reaction - alpha * mdof * v_new
+        self._accept(st, dt, act, u, v_new, a_new, v0, reaction, nd)
 
     def _scratch(self, st: State) -> None:
-        if getattr(self, "_F", None) is None or self._F.shape[0] != st.n:
+        """Per-particle arrays of the update (F, L, sigma, tangent, bulk-viscosity pressure q), sized to the state."""
+        if self._F.shape[0] != st.n:
             self._F, self._L, self._sig = (wp.zeros(st.n, dtype=self.t.mat33, device=self.device) for _ in range(3))
             self._c = wp.zeros(st.n, dtype=mat66(self.t), device=self.device)
+            self._q = wp.zeros(st.n, dtype=self.t.scalar, device=self.device)
 
     def _node_position(self, node: int) -> np.ndarray:
         """Position [m] of flat node index ``node``."""
@@ -425,8 +624,9 @@ class ImplicitSolver(ExplicitSolver):
 
     def _accept(self, st: State, dt: float, act: np.ndarray, u: np.ndarray, v_new: np.ndarray, a_new: np.ndarray,
                 v0: np.ndarray, reaction: np.ndarray, nd: dict[str, np.ndarray]) -> None:  # fmt: skip
-        """Particle update of a converged step, reactions on the constraints, history swap."""
-        s = self.t.scalar
+        """Particle update of a converged step, reactions on the constraints, tracked peaks, history
+        swap, then the explicit solver's checks and removal."""
+        ph, s = self.phases, self.t.scalar
         n = self.n_nodes
         dv, vn, an = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
         dv[act] = (v_new - v0).reshape(-1, 3)
@@ -439,30 +639,25 @@ class ImplicitSolver(ExplicitSolver):
             R[act, :3] = reaction.reshape(-1, 3)
             cm = np.zeros((n, 4))
             cm[:, :3], cm[:, 3] = nd["cmv"], nd["cm"]
-            self.g_react.assign(R.astype(self.t.numpy))
-            self.g_c.assign(cm.astype(self.t.numpy))
-            wp.launch(self.kern.reaction, dim=st.n, device=self.device, inputs=[
-                st.x, st.mass, st.size, st.F, st.material, st.field, st.fixed, self.mat_rigid, self.g_react, self.g_c,
-                self.origin, s(1.0 / self.h), self.dims, 0, st.reaction])  # fmt: skip
-        self._fill(st, "bad", st.n)
+            ph.g_react.assign(R.astype(self.t.numpy))
+            ph.g_c.assign(cm.astype(self.t.numpy))
+            wp.launch(ph.kern.reaction, dim=st.n, device=self.device,
+                      inputs=[st.kernel_args, ph.grid_args, 0])  # the explicit structs (mpm.kernels.kernel_structs)
+        ph._fill(st, "bad", st.n)
+        bulk = [st.bulk_q, st.bulk_work] if self.config.bulk_viscosity else [st.work, st.work]  # placeholders when off
         wp.launch(self.ik.finish, dim=st.n, device=self.device, inputs=[
-            st.x, st.v, st.acc, st.vpic, st.size, st.F, st.material, st.fixed, self.mat_rigid, self.rigid_vel,
-            self.n_u, self.n_dv, self.n_vnew, self.n_anew, self.origin, s(1.0 / self.h), self.dims, s(dt),
-            s(self.config.flip), self.lower, self.upper, self.wall_lo, self.wall_hi, st.bad, st.stress, self._sig,
-            self._L, self._F, st.volume0, st.work])  # fmt: skip
+            st.x, st.v, st.acc, st.vpic, st.size, st.F, st.material, st.fixed, ph.mat_rigid, ph.rigid_vel,
+            self.n_u, self.n_dv, self.n_vnew, self.n_anew, *self._common(), s(dt),
+            s(self.config.flip), ph.lower, ph.upper, self.wall_lo, self.wall_hi, st.bad, st.stress, self._sig,
+            self._L, self._F, st.volume0, st.work, self._q, *bulk])  # fmt: skip
         wp.copy(st.F, self._F)
         wp.copy(st.L, self._L)
         wp.copy(st.stress, self._sig)
+        if ph.tracker is not None:  # peaks of the converged step (tissuempm.mpm.tracking)
+            ph._per_chunk(ph.tracker.tasks(st, dt))
         st.history, st.history_next = st.history_next, st.history
-        self._check(st)
-
-    def diagnostics(self, state: State) -> dict[str, Any]:
-        """The explicit solver's diagnostics plus ``newton_iterations`` (total), ``last_iterations``,
-        ``halved_steps`` and ``direct_fallbacks`` (CG solves handed to SuperLU)."""
-        out = super().diagnostics(state)
-        out.update(newton_iterations=self.iterations, last_iterations=self.last_iterations, halved_steps=self.retries,
-                   direct_fallbacks=self.direct_fallbacks)  # fmt: skip
-        return out
+        ph._check(st)
 
 
-__all__ = ["ImplicitConfig", "ImplicitSolver", "LINEAR_SOLVERS"]
+__all__ = ["IMPLICIT_CAPABILITIES", "Capability", "ImplicitConfig", "ImplicitSolver", "LINEAR_SOLVERS",
+           "check_implicit"]

@@ -27,9 +27,11 @@ VOIGT_OF = ((0, 5, 4), (5, 1, 3), (4, 3, 2))
 
 
 @functools.cache
-def implicit_kernels(t: WarpTypes, shape: str) -> Any:
+def implicit_kernels(t: WarpTypes, shape: str, bulk_viscosity: bool = False) -> Any:
     """P2G, node, assembly and particle-update kernels of the implicit step for types ``t``
-    and ``shape`` (one velocity field)."""
+    and ``shape`` (one velocity field); ``bulk_viscosity``: the update adds the artificial bulk
+    viscosity's pressure and tangent, the particle update its dissipated energy
+    (:mod:`tissuempm.mpm.implicit`)."""
     from types import SimpleNamespace
 
     s, vec3, mat33 = t.scalar, t.vec3, t.mat33
@@ -40,6 +42,7 @@ def implicit_kernels(t: WarpTypes, shape: str) -> Any:
     NB = 2 * NP - 1
     apply_bc = boundary_function(t)
     vmap = wp.constant(wp.types.matrix(shape=(3, 3), dtype=wp.int32)(*[v for row in VOIGT_OF for v in row]))
+    BV = bulk_viscosity
 
     @wp.func
     def grad_sum(u: wp.array(dtype=vec3), nb: int, sx: int, sy: int, wx: vec3, wy: vec3, wz: vec3,
@@ -125,9 +128,12 @@ def implicit_kernels(t: WarpTypes, shape: str) -> Any:
     @functools.cache
     def update(cls: type) -> Any:
         """Per law: F = F_inc F_n, L = (F_inc - I) F_inc^-1 / dt, the tangent c and the stress
-        sigma(F) from the history at the start of the step."""
+        sigma(F) from the history at the start of the step; with the bulk viscosity (``BV``) in
+        compression (theta = ln(J / J_n) / dt < 0) sigma - q I and c + c^q, q to ``q_out``
+        (module docstring of :mod:`tissuempm.mpm.implicit`)."""
         stress_fn = cls.stress_function(t.precision)
         tangent_fn = cls.tangent_function(t.precision)
+        moduli_fn = cls.moduli_function(t.precision)
 
         @kernel
         def law_update(
@@ -136,7 +142,7 @@ def implicit_kernels(t: WarpTypes, shape: str) -> Any:
             fiber: wp.array(dtype=vec3), s_in: wp.array2d(dtype=s), s_out: wp.array2d(dtype=s), origin: vec3,
             inv_h: s, dims: wp.vec3i, dt: s, F_out: wp.array(dtype=mat33), L_out: wp.array(dtype=mat33),
             sig_out: wp.array(dtype=mat33), c_out: wp.array(dtype=M66), bad: wp.array(dtype=int), begin: int,
-            c: int,
+            c: int, h: s, c_lin: s, c_quad: s, q_out: wp.array(dtype=s),
         ):  # fmt: skip
             p = begin + wp.tid()
             if material[p] != mat_id:
@@ -155,10 +161,30 @@ def implicit_kernels(t: WarpTypes, shape: str) -> Any:
                 wp.atomic_min(bad, c, p)
                 sig_out[p] = mat33()
                 c_out[p] = M66()
+                if wp.static(BV):
+                    q_out[p] = s(0.0)
                 return
             a0 = fiber[p]
+            if wp.static(BV):  # the wave speed of the start of the step (before the law writes s_out)
+                Jn = wp.determinant(F_n[p])
+                Kn, Gn = moduli_fn(F_n[p], a0, prm, s_in, p)
+                cw = wp.sqrt(wp.max((Kn + s(4.0) / s(3.0) * Gn) * Jn / prm[0], s(0.0)))
             cp = tangent_fn(Fp, Lp, a0, prm, s_in, s_out, p, dt)
             sig = stress_fn(Fp, Lp, a0, prm, s_in, s_out, p, dt)
+            if wp.static(BV):
+                theta = wp.log(wp.determinant(Finc)) / dt
+                q = s(0.0)
+                if theta < s(0.0):
+                    phi = prm[0] * h * (c_quad * h * theta * theta - c_lin * cw * theta)  # J q
+                    a = prm[0] * h * (s(2.0) * c_quad * h * theta - c_lin * cw) / dt  # d(J q)/d tr(grad du)
+                    q = phi / J
+                    sig = sig - q * wp.identity(n=3, dtype=s)
+                    for i in range(3):
+                        for j in range(3):
+                            cp[i, j] = cp[i, j] - a / J
+                        cp[i, i] = cp[i, i] + s(2.0) * q
+                        cp[i + 3, i + 3] = cp[i + 3, i + 3] + q
+                q_out[p] = q
             if not (wp.isfinite(wp.ddot(sig, sig))):
                 wp.atomic_min(bad, c, p)
             sig_out[p] = sig
@@ -247,18 +273,31 @@ def implicit_kernels(t: WarpTypes, shape: str) -> Any:
         lower: vec3, upper: vec3, wall_lo: vec3, wall_hi: vec3, bad: wp.array(dtype=int),
         sig_old: wp.array(dtype=mat33), sig_new: wp.array(dtype=mat33), L_new: wp.array(dtype=mat33),
         F_new: wp.array(dtype=mat33),
-        vol0: wp.array(dtype=s), work: wp.array(dtype=s),
+        vol0: wp.array(dtype=s), work: wp.array(dtype=s), q_new: wp.array(dtype=s), bulk_q: wp.array(dtype=s),
+        bulk_work: wp.array(dtype=s),
     ):  # fmt: skip
         """Particle update of a converged step: x += sum S u_i; v <- flip (v + sum S dv_i) +
         (1 - flip) sum S v_i^new; a = sum S a_i^new (Guilkey & Weiss 2003); x is kept on the grid
         side of wall faces (``wall_lo``, ``wall_hi``, as in the explicit G2P); internal work
-        += V (sigma_n + sigma_n+1)/2 : D dt. Rigid particles move with their material, fixed ones stay."""
+        += V (sigma_n + sigma_n+1)/2 : D dt of the law's stress. With the bulk viscosity (``BV``)
+        ``bulk_work`` += V (q_n + q_n+1)/2 (-theta) dt, theta = ln(J_n+1 / J_n) / dt, and
+        ``bulk_q`` <- q_n+1. Rigid particles move with their material, fixed ones stay."""
         p = wp.tid()
         mat = material[p]
         if mat_rigid[mat] == 0:
             Lp = L_new[p]
             D = s(0.5) * (Lp + wp.transpose(Lp))
-            work[p] = work[p] + s(0.5) * wp.ddot(sig_old[p] + sig_new[p], D) * vol0[p] * wp.determinant(F_new[p]) * dt
+            J = wp.determinant(F_new[p])
+            s_old = sig_old[p]
+            s_new = sig_new[p]
+            if wp.static(BV):
+                s_old = s_old + bulk_q[p] * wp.identity(n=3, dtype=s)
+                s_new = s_new + q_new[p] * wp.identity(n=3, dtype=s)
+                Jn = wp.determinant(F_n[p])
+                if J > s(0.0) and Jn > s(0.0):
+                    bulk_work[p] = bulk_work[p] - s(0.5) * (bulk_q[p] + q_new[p]) * wp.log(J / Jn) * vol0[p] * J
+                bulk_q[p] = q_new[p]
+            work[p] = work[p] + s(0.5) * wp.ddot(s_old + s_new, D) * vol0[p] * J * dt
         if mat_rigid[mat] != 0:
             x[p] = x[p] + dt * rigid_vel[mat]
             v[p] = rigid_vel[mat]

@@ -6,7 +6,8 @@ on the particle range ``[begin, begin + dim)`` (one chunk) and scatters into row
 ``c`` of the chunk grid buffers (its per-chunk scalars live at slot ``c * SLOT``); on
 CUDA there is one chunk and the adds are atomic. The chunk buffers are zero between
 steps: a scatter writes inside its chunk's window only, and the grid pass that reduces
-a field zeroes the entries it read.
+a field zeroes the entries it read. The kernels take their arrays and scalars in the Warp structs of
+:func:`kernel_structs` (a state's particles, the solver's grid, the step's scalars, a chunk's buffer rows).
 
 Grid storage: node ``(i, j, k)`` (``i = -GHOST .. nx + GHOST``) has the flat node index
 ``((i + GHOST) * NY + j + GHOST) * NZ + k + GHOST`` with ``NY = ny + 1 + 2 GHOST``
@@ -269,8 +270,111 @@ def vec4_helpers(t: WarpTypes) -> SimpleNamespace:
 
 
 @functools.cache
-def _p2g(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any:
+def kernel_structs(t: WarpTypes) -> SimpleNamespace:
+    """Warp structs of the explicit step's kernel arguments for types ``t``: the kernels take these,
+    not dozens of positional arguments (issue 24).
+
+    ``Particles``
+        A state's particle arrays (storage order, :class:`~tissuempm.mpm.state.State`) and its per-chunk
+        slots, one per state (:meth:`ExplicitSolver.attach <tissuempm.mpm.solver.ExplicitSolver.attach>`,
+        rebuilt when particles are removed). ``xs`` holds the stencil positions (``x``, or ``xref`` on a
+        grid without reset) and ``F_ref`` the deformation at the last reset (else ``F``); ``bulk_q`` and
+        ``bulk_work`` are ``work`` without bulk viscosity (never read then).
+    ``Grid``
+        The solver's grid (geometry, wall planes), nodal records ``g_*``, chunk buffers ``b_*`` (n_chunks, records),
+        rigid-material and grid-face tables: one per solver.
+    ``Step``
+        The step's scalars and inputs (time step, gravity, body acceleration, the stress the FORCE scatter
+        takes): one per solver, its members set by each phase before its parallel section.
+    ``Rows``
+        One chunk's rows of the chunk buffers (1-D views), one per chunk.
+
+    A recorded launch (:mod:`tissuempm.mpm.launch`) packs a struct by reference: it reads the members
+    the struct holds at each launch, so a struct is built once and its members are updated in place.
+    """
     s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
+
+    @wp.struct
+    class Particles:
+        x: wp.array(dtype=vec3)
+        xs: wp.array(dtype=vec3)
+        v: wp.array(dtype=vec3)
+        vpic: wp.array(dtype=vec3)
+        mass: wp.array(dtype=s)
+        vol0: wp.array(dtype=s)
+        size: wp.array(dtype=vec3)
+        F: wp.array(dtype=mat33)
+        F_ref: wp.array(dtype=mat33)
+        L: wp.array(dtype=mat33)
+        stress: wp.array(dtype=mat33)
+        material: wp.array(dtype=wp.int32)
+        field: wp.array(dtype=wp.int32)
+        fixed: wp.array(dtype=wp.int32)
+        fiber: wp.array(dtype=vec3)
+        work: wp.array(dtype=s)
+        reaction: wp.array(dtype=vec3)
+        bulk_q: wp.array(dtype=s)
+        bulk_work: wp.array(dtype=s)
+        n_chunks: int
+        lo: wp.array(dtype=int)
+        hi: wp.array(dtype=int)
+        bad: wp.array(dtype=int)
+        speed: wp.array(dtype=s)
+
+    @wp.struct
+    class Grid:
+        origin: vec3
+        h: s
+        inv_h: s
+        dims: wp.vec3i
+        lower: vec3
+        upper: vec3
+        wall_lo: vec3
+        wall_hi: vec3
+        window: int
+        mat_rigid: wp.array(dtype=wp.int32)
+        rigid_vel: wp.array(dtype=vec3)
+        n_bc: int
+        bc_kind: wp.array(dtype=wp.int32)
+        bc_vel: wp.array(dtype=vec3)
+        g_mm: wp.array(dtype=vec4)
+        g_c: wp.array(dtype=vec4)
+        g_x: wp.array(dtype=vec4)
+        g_vinc: wp.array(dtype=vec4)
+        g_vnew: wp.array(dtype=vec4)
+        g_vgrad: wp.array(dtype=vec4)
+        g_react: wp.array(dtype=vec4)
+        b_mm: wp.array2d(dtype=vec4)
+        b_f: wp.array2d(dtype=vec4)
+        b_c: wp.array2d(dtype=vec4)
+        b_x: wp.array2d(dtype=vec4)
+
+    @wp.struct
+    class Step:
+        dt: s
+        gravity: vec3
+        damping: s
+        flip: s
+        min_mass: s
+        c_lin: s
+        c_quad: s
+        body: wp.array(dtype=vec3)
+        force_stress: wp.array(dtype=mat33)
+
+    @wp.struct
+    class Rows:
+        b_mm: wp.array(dtype=vec4)
+        b_f: wp.array(dtype=vec4)
+        b_c: wp.array(dtype=vec4)
+        b_x: wp.array(dtype=vec4)
+
+    return SimpleNamespace(Particles=Particles, Grid=Grid, Step=Step, Rows=Rows)
+
+
+@functools.cache
+def _p2g(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any:
+    A = kernel_structs(t)
+    s, vec3, vec4 = t.scalar, t.vec3, t.vec4
     h = _helpers(t, shape, NF)
     stencil, field_of, NP = h.stencil, h.field_of, h.NP
     extent, scatter_position = h.extent, h.scatter_position
@@ -279,99 +383,77 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
     POS = NF > 1 and (flags & MASS) != 0  # the contact gap's position record
 
     @transfer_kernel
-    def p2g(
-        x: wp.array(dtype=vec3),
-        v: wp.array(dtype=vec3),
-        mass: wp.array(dtype=s),
-        vol0: wp.array(dtype=s),
-        size: wp.array(dtype=vec3),
-        F: wp.array(dtype=mat33),
-        stress: wp.array(dtype=mat33),
-        material: wp.array(dtype=wp.int32),
-        field: wp.array(dtype=wp.int32),
-        fixed: wp.array(dtype=wp.int32),
-        mat_rigid: wp.array(dtype=wp.int32),
-        rigid_vel: wp.array(dtype=vec3),
-        body: wp.array(dtype=vec3),
-        origin: vec3,
-        inv_h: s,
-        dims: wp.vec3i,
-        begin: int,
-        c: int,
-        window: int,
-        lo: wp.array(dtype=int),
-        hi: wp.array(dtype=int),
-        b_mm: wp.array(dtype=vec4),
-        b_f: wp.array(dtype=vec4),
-        b_c: wp.array(dtype=vec4),
-        b_x: wp.array(dtype=vec4),
-    ):
+    def p2g(P: A.Particles, G: A.Grid, S: A.Step, B: A.Rows, begin: int, c: int):
         """Particle to grid, into 4-vector node records (one SIMD register each):
-        MASS: (m v, m)_i = sum S m_p (v_p, 1) in ``b_mm``, and the constraint record (m v_c, m)_i of
+        MASS: (m v, m)_i = sum S m_p (v_p, 1) in ``B.b_mm``, and the constraint record (m v_c, m)_i of
         rigid (v_c their material's velocity; a rotating driver's V + omega x (x_i - c) at the node x_i,
-        :mod:`tissuempm.mpm.rigid_pulses`) and fixed (v_c = 0) particles in ``b_c``; with several
-        velocity fields also every particle's position record in ``b_x`` (``scatter_position``:
+        :mod:`tissuempm.mpm.rigid_pulses`) and fixed (v_c = 0) particles in ``B.b_c``; with several
+        velocity fields also every particle's position record in ``B.b_x`` (``scatter_position``:
         the nodal centres of mass of the contact gap, :mod:`tissuempm.mpm.contact`);
-        FORCE: (f, 0)_i = -sum V_p sigma_p grad S + sum S m_p b_p in ``b_f``; axisymmetric (``AX``,
-        x the radius r, z the hoop direction theta, V_p per radian) also the hoop force
-        -sum S V_p sigma_theta,theta / r_p along x (:mod:`tissuempm.mpm.axisymmetric`, eq. (2)).
+        FORCE: (f, 0)_i = -sum V_p sigma_p grad S + sum S m_p b_p in ``B.b_f`` (sigma_p ``S.force_stress``,
+        b_p ``S.body`` with BODY); axisymmetric (``AX``, x the radius r, z the hoop direction theta, V_p
+        per radian) also the hoop force -sum S V_p sigma_theta,theta / r_p along x
+        (:mod:`tissuempm.mpm.axisymmetric`, eq. (2)).
 
-        Each particle scatters into its own velocity field's records (``field``).
+        The stencil sits at ``P.xs``. Each particle scatters into its own velocity field's records (``P.field``).
 
-        With MASS and ``window`` != 0 (CPU chunks) the chunk's scatter window ``[lo[c], hi[c]]``
+        With MASS and ``G.window`` != 0 (CPU chunks) the chunk's scatter window ``[P.lo[c], P.hi[c]]``
         (flat record indices, for the grid reduction) grows to hold the stencil, ``nb`` to
         ``nb + (NP - 1)(sx + sy + NF)``.
         """
         p = begin + wp.tid()
-        mat = material[p]
-        nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(x[p], p, size, F, origin, inv_h, dims, field_of(field, p))
+        mat = P.material[p]
+        xp = P.xs[p]
+        nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(xp, p, P.size, P.F, G.origin, G.inv_h, G.dims,
+                                                     field_of(P.field, p))  # fmt: skip
         if wp.static(flags & MASS):
-            if window != 0:
-                wp.atomic_min(lo, c, nb)
-                wp.atomic_max(hi, c, nb + (NP - 1) * (sx + sy + NF))
-        m = mass[p]
+            if G.window != 0:
+                wp.atomic_min(P.lo, c, nb)
+                wp.atomic_max(P.hi, c, nb + (NP - 1) * (sx + sy + NF))
+        m = P.mass[p]
         if wp.static(POS):
-            xr = x[p] - origin
-            scatter_position(b_x, nb, sx, sy, wx, wy, wz, dx, dy, dz, xr, m, extent(size, F, p, inv_h), inv_h)
-        if mat_rigid[mat] != 0:
+            xr = xp - G.origin
+            scatter_position(B.b_x, nb, sx, sy, wx, wy, wz, dx, dy, dz, xr, m, extent(P.size, P.F, p, G.inv_h),
+                             G.inv_h)  # fmt: skip
+        if G.mat_rigid[mat] != 0:
             if wp.static(flags & MASS):
-                if rigid_turns(rigid_vel, mat):  # the rotating driver's field at each node (mpm.rigid_pulses)
-                    xn0 = rigid_first_node(nb, NF, dims, origin, inv_h)
-                    hn = s(1.0) / inv_h
+                if rigid_turns(G.rigid_vel, mat):  # the rotating driver's field at each node (mpm.rigid_pulses)
+                    xn0 = rigid_first_node(nb, NF, G.dims, G.origin, G.inv_h)
+                    hn = s(1.0) / G.inv_h
                     xi = xn0
                     for i in range(NP):
                         xj = xi
                         for j in range(NP):
                             xk = xj
                             for k in range(NP):
-                                vr = pack(m * rigid_velocity(rigid_vel, mat, xk), m)
-                                b_c[nb + i * sx + j * sy + k * NF] += (wx[i] * wy[j] * wz[k]) * vr
+                                vr = pack(m * rigid_velocity(G.rigid_vel, mat, xk), m)
+                                B.b_c[nb + i * sx + j * sy + k * NF] += (wx[i] * wy[j] * wz[k]) * vr
                                 xk = xk + vec3(s(0.0), s(0.0), hn)
                             xj = xj + vec3(s(0.0), hn, s(0.0))
                         xi = xi + vec3(hn, s(0.0), s(0.0))
                 else:
-                    mvr = pack(m * rigid_vel[mat], m)
+                    mvr = pack(m * G.rigid_vel[mat], m)
                     for i in range(NP):
                         for j in range(NP):
                             for k in range(NP):
-                                b_c[nb + i * sx + j * sy + k * NF] += (wx[i] * wy[j] * wz[k]) * mvr
+                                B.b_c[nb + i * sx + j * sy + k * NF] += (wx[i] * wy[j] * wz[k]) * mvr
             return
-        mv = pack(m * v[p], m)
+        mv = pack(m * P.v[p], m)
         mc = vec4(s(0.0), s(0.0), s(0.0), m)
         V0 = vec4()
         V1 = vec4()
         V2 = vec4()
         bf = vec4()
         if wp.static(flags & FORCE):
-            Vt = wp.transpose((-vol0[p] * wp.determinant(F[p])) * stress[p])  # rows: columns of -V sigma
+            Vt = wp.transpose((-P.vol0[p] * wp.determinant(P.F[p])) * S.force_stress[p])  # rows: columns of -V sigma
             V0 = pack(Vt[0], s(0.0))
             V1 = pack(Vt[1], s(0.0))
             V2 = pack(Vt[2], s(0.0))
             if wp.static(AX):  # hoop force -V sigma_tt / r, weighted by S like a body force
-                bf = vec4(Vt[2][2] / x[p][0], s(0.0), s(0.0), s(0.0))
+                bf = vec4(Vt[2][2] / xp[0], s(0.0), s(0.0), s(0.0))
         if wp.static(flags & BODY):
-            bf = bf + pack(m * body[p], s(0.0))
-        fx = fixed[p] != 0
+            bf = bf + pack(m * S.body[p], s(0.0))
+        fx = P.fixed[p] != 0
         # tensor-product factorisation: with grad S = (dx_i wy_j wz_k, wx_i dy_j wz_k, wx_i wy_j dz_k),
         # -V sigma grad S + S m b = wz_k fa_ij + dz_k fb_ij, fa_ij and fb_ij formed once per (i, j)
         for i in range(NP):
@@ -388,11 +470,11 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
                     n = nb + i * sx + j * sy + k * NF
                     if wp.static(flags & MASS):
                         w = wij * wz[k]
-                        b_mm[n] += w * mv
+                        B.b_mm[n] += w * mv
                         if fx:
-                            b_c[n] += w * mc
+                            B.b_c[n] += w * mc
                     if wp.static(flags & FORCE):
-                        b_f[n] += wz[k] * fa + dz[k] * fb
+                        B.b_f[n] += wz[k] * fa + dz[k] * fb
 
     return p2g
 
@@ -426,6 +508,7 @@ def boundary_function(t: WarpTypes) -> Any:
 
 @functools.cache
 def _grid(t: WarpTypes, flags: int, mode: int, NF: int) -> Any:
+    A = kernel_structs(t)
     s, vec3, vec4 = t.scalar, t.vec3, t.vec4
     v4 = vec4_helpers(t)
     pack, head = v4.pack, v4.head
@@ -433,87 +516,68 @@ def _grid(t: WarpTypes, flags: int, mode: int, NF: int) -> Any:
     POS = NF > 1 and (flags & MASS) != 0  # reduce the contact gap's position records
 
     @transfer_kernel
-    def grid(
-        start: int,
-        n_chunks: int,
-        lo: wp.array(dtype=int),
-        hi: wp.array(dtype=int),
-        b_mm: wp.array2d(dtype=vec4),
-        b_f: wp.array2d(dtype=vec4),
-        b_c: wp.array2d(dtype=vec4),
-        g_mm: wp.array(dtype=vec4),
-        g_c: wp.array(dtype=vec4),
-        v_a: wp.array(dtype=vec4),
-        v_b: wp.array(dtype=vec4),
-        react: wp.array(dtype=vec4),
-        dt: s,
-        gravity: vec3,
-        damping: s,
-        min_mass: s,
-        dims: wp.vec3i,
-        n_bc: int,
-        bc_kind: wp.array(dtype=wp.int32),
-        bc_vel: wp.array(dtype=vec3),
-        b_x: wp.array2d(dtype=vec4),
-        g_x: wp.array(dtype=vec4),
-    ):
-        """Reduce the chunk buffers in chunk order and zero what was read (so the buffers are clean
-        for the next scatter without a clearing pass), then solve the node.
+    def grid(start: int, P: A.Particles, G: A.Grid, S: A.Step):
+        """Reduce the chunk buffers (``G.b_*``, the chunks' windows ``P.lo``, ``P.hi``) in chunk order and
+        zero what was read (so the buffers are clean for the next scatter without a clearing pass), then
+        solve the node.
 
         Flags: MASS reduces the (m v, m) and constraint records (and, with several velocity fields,
         the position records ``b_x`` into ``g_x`` for the contact gap), MOMENTUM the (m v, m) records only
         (MUSL's re-projection), FORCE the force; the reduced records are kept in ``g_mm`` and ``g_c``
         for a later pass that does not reduce them (USF's force-only UPDATE pass).
 
-        mode VELOCITY: v_a = constrained velocity (constraints and BCs applied).
-        mode UPDATE:   v_b = v + dt (f/m + g - damping v) with v = mom/m, then constraints and BCs,
-                       v_a = v_b - v (the FLIP increment, formed once per node, not per particle),
-                       react = force on the constraint (rigid/fixed) from the rest of the model:
+        mode VELOCITY: g_vgrad = constrained velocity (constraints and BCs applied).
+        mode UPDATE:   g_vnew = v + dt (f/m + g - damping v) with v = mom/m, then constraints and BCs,
+                       g_vinc = g_vnew - v (the FLIP increment, formed once per node, not per particle),
+                       g_react = force on the constraint (rigid/fixed) from the rest of the model:
                        R = f + m g - damping m v - m (v_c - v)/dt.
-        ``n_bc`` = number of faces with a condition (0: the node's indices are not needed).
+        Nodes with mass <= ``S.min_mass`` are empty. ``G.n_bc`` = number of faces with a condition
+        (0: the node's indices are not needed).
         The index runs over records (node n // NF, field n % NF); each field is solved on its own.
         """
         n = start + wp.tid()
+        n_chunks = P.n_chunks
         mm = vec4()
         if wp.static(flags & (MASS | MOMENTUM)):
             for c in range(n_chunks):
-                if n >= lo[c * SLOT] and n <= hi[c * SLOT]:
-                    mm += b_mm[c, n]
-                    b_mm[c, n] = vec4()
-            g_mm[n] = mm
+                if n >= P.lo[c * SLOT] and n <= P.hi[c * SLOT]:
+                    mm += G.b_mm[c, n]
+                    G.b_mm[c, n] = vec4()
+            G.g_mm[n] = mm
         else:
-            mm = g_mm[n]
+            mm = G.g_mm[n]
         cr = vec4()
         if wp.static(flags & MASS):
             for c in range(n_chunks):
-                if n >= lo[c * SLOT] and n <= hi[c * SLOT]:
-                    cr += b_c[c, n]
-                    b_c[c, n] = vec4()
-            g_c[n] = cr
+                if n >= P.lo[c * SLOT] and n <= P.hi[c * SLOT]:
+                    cr += G.b_c[c, n]
+                    G.b_c[c, n] = vec4()
+            G.g_c[n] = cr
         else:
-            cr = g_c[n]
+            cr = G.g_c[n]
         if wp.static(POS):
             xr = vec4()
             for c in range(n_chunks):
-                if n >= lo[c * SLOT] and n <= hi[c * SLOT]:
-                    xr += b_x[c, n]
-                    b_x[c, n] = vec4()
-            g_x[n] = xr
+                if n >= P.lo[c * SLOT] and n <= P.hi[c * SLOT]:
+                    xr += G.b_x[c, n]
+                    G.b_x[c, n] = vec4()
+            G.g_x[n] = xr
         f = vec3()
         if wp.static(flags & FORCE):
             f4 = vec4()
             for c in range(n_chunks):
-                if n >= lo[c * SLOT] and n <= hi[c * SLOT]:
-                    f4 += b_f[c, n]
-                    b_f[c, n] = vec4()
+                if n >= P.lo[c * SLOT] and n <= P.hi[c * SLOT]:
+                    f4 += G.b_f[c, n]
+                    G.b_f[c, n] = vec4()
             f = head(f4)
         m = mm[3]
         cm = cr[3]
         ijk = wp.vec3i()
-        if n_bc > 0:
-            ijk = node_indices(n // NF, dims)
+        if G.n_bc > 0:
+            ijk = node_indices(n // NF, G.dims)
         vo = vec3()
         inv_m = s(0.0)
+        min_mass = S.min_mass
         if m > min_mass:
             inv_m = s(1.0) / m
             vo = inv_m * head(mm)
@@ -522,28 +586,31 @@ def _grid(t: WarpTypes, flags: int, mode: int, NF: int) -> Any:
             if cm > s(0.0):
                 vv = head(cr) / cm
         else:
+            dt = S.dt
+            damping = S.damping
             r = vec3()
             if m > min_mass:
-                vv = vo + dt * (inv_m * f + gravity - damping * vo)
+                vv = vo + dt * (inv_m * f + S.gravity - damping * vo)
             if cm > s(0.0):
                 vc = head(cr) / cm
                 if m > min_mass:
-                    r = f + m * gravity - (damping * m) * vo - (m / dt) * (vc - vo)
+                    r = f + m * S.gravity - (damping * m) * vo - (m / dt) * (vc - vo)
                 vv = vc
-            react[n] = pack(r, s(0.0))
-        if n_bc > 0:
-            vv = apply_bc(vv, ijk, dims, bc_kind, bc_vel)
+            G.g_react[n] = pack(r, s(0.0))
+        if G.n_bc > 0:
+            vv = apply_bc(vv, ijk, G.dims, G.bc_kind, G.bc_vel)
         if wp.static(mode == VELOCITY):
-            v_a[n] = pack(vv, s(0.0))
+            G.g_vgrad[n] = pack(vv, s(0.0))
         else:
-            v_a[n] = pack(vv - vo, s(0.0))
-            v_b[n] = pack(vv, s(0.0))
+            G.g_vinc[n] = pack(vv - vo, s(0.0))
+            G.g_vnew[n] = pack(vv, s(0.0))
 
     return grid
 
 
 @functools.cache
 def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any:
+    A = kernel_structs(t)
     s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
     h = _helpers(t, shape, NF)
     stencil, field_of, NP = h.stencil, h.field_of, h.NP
@@ -552,65 +619,36 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
     rigid_step = rigid_motion_functions(t)[1]
 
     @transfer_kernel
-    def g2p(
-        x: wp.array(dtype=vec3),
-        v: wp.array(dtype=vec3),
-        vpic_p: wp.array(dtype=vec3),
-        F: wp.array(dtype=mat33),
-        F_ref: wp.array(dtype=mat33),
-        L: wp.array(dtype=mat33),
-        stress: wp.array(dtype=mat33),
-        size: wp.array(dtype=vec3),
-        material: wp.array(dtype=wp.int32),
-        field: wp.array(dtype=wp.int32),
-        fixed: wp.array(dtype=wp.int32),
-        mat_rigid: wp.array(dtype=wp.int32),
-        rigid_vel: wp.array(dtype=vec3),
-        v_inc: wp.array(dtype=vec4),
-        v_new: wp.array(dtype=vec4),
-        v_grad: wp.array(dtype=vec4),
-        mass: wp.array(dtype=s),
-        b_mm: wp.array(dtype=vec4),
-        origin: vec3,
-        inv_h: s,
-        dims: wp.vec3i,
-        lower: vec3,
-        upper: vec3,
-        wall_lo: vec3,
-        wall_hi: vec3,
-        begin: int,
-        c: int,
-        dt: s,
-        flip: s,
-        bad: wp.array(dtype=int),
-    ):
+    def g2p(P: A.Particles, G: A.Grid, S: A.Step, B: A.Rows, v_grad: wp.array(dtype=vec4), begin: int, c: int):
         """Grid to particle (``flags`` of MOVE, GRADIENT, POSITION; see the module constants).
 
         MOVE:     v_p <- flip (v_p + sum S (v_i^new - v_i^old)) + (1 - flip) sum S v_i^new
-                  (the increments v_i^new - v_i^old are ``v_inc``, from the grid pass),
+                  (the increments v_i^new - v_i^old are ``G.g_vinc``, from the grid pass),
                   v_pic = sum S v_i^new (``reaction`` gives the constrained particles' reaction share).
         GRADIENT: L_p = sum v_i (x) grad S (v_i = ``v_grad``), F <- (I + dt L) F, check J > 0 for
                   particles that carry stress; axisymmetric (``AX``): L_theta,theta = sum S v_i,r / r_p
                   (:mod:`tissuempm.mpm.axisymmetric`, eq. (1)) (a completely failed, stress-free particle may invert:
                   it is counted, not an instability). With REFERENCE the gradients are those of the
-                  reference configuration (``x`` = positions at the last reset, deformation
-                  ``F_ref`` there): F <- F + dt L_0 F_ref with L_0 = sum v_i (x) grad_0 S, and
+                  reference configuration (stencil at ``P.xs`` = positions at the last reset, deformation
+                  ``P.F_ref`` there): F <- F + dt L_0 F_ref with L_0 = sum v_i (x) grad_0 S, and
                   L_p = L_0 F_ref F^-1 (``F_ref`` is not read otherwise).
-        Every sum runs over the particle's own velocity field (``field``).
-        POSITION: x <- x + dt v_pic, projected back onto a wall face (slip or fixed: ``wall_lo``,
-                  ``wall_hi``; +-inf where there is none) that it crossed by round-off or FLIP
+        Every sum runs over the particle's own velocity field (``P.field``); the stencil sits at ``P.xs``.
+        POSITION: x <- x + dt v_pic (``P.x``), projected back onto a wall face (slip or fixed: ``G.wall_lo``,
+                  ``G.wall_hi``; +-inf where there is none) that it crossed by round-off or FLIP
                   drift, then checked to be inside the grid.
-        REPROJECT (with MOVE): b_mm_i += S (m_p v_p, m_p) (MUSL), so the re-projection costs no second stencil.
+        REPROJECT (with MOVE): B.b_mm_i += S (m_p v_p, m_p) (MUSL), so the re-projection costs no second stencil.
         Rigid particles move with their material's rigid motion (translation and rotation, the Cayley step
         of :mod:`tissuempm.mpm.rigid_pulses`) and keep F; fixed ones stay put.
         The nodal velocities are 4-vectors (last component 0) so the sums run in SIMD registers.
         """
         p = begin + wp.tid()
-        mat = material[p]
-        xp = x[p]
-        rigid = mat_rigid[mat] != 0
+        mat = P.material[p]
+        rigid = G.mat_rigid[mat] != 0
+        dt = S.dt
         if wp.static(flags & (MOVE | GRADIENT)):
-            nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(xp, p, size, F, origin, inv_h, dims, field_of(field, p))
+            xp = P.xs[p]
+            nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(xp, p, P.size, P.F, G.origin, G.inv_h, G.dims,
+                                                         field_of(P.field, p))  # fmt: skip
             vpic4 = vec4()
             dv4 = vec4()
             c0 = vec4()
@@ -628,9 +666,9 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
                     for k in range(NP):
                         n = nb + i * sx + j * sy + k * NF
                         if wp.static(flags & MOVE):
-                            vn = v_new[n]
+                            vn = G.g_vnew[n]
                             sv += wz[k] * vn
-                            sdv += wz[k] * v_inc[n]
+                            sdv += wz[k] * G.g_vinc[n]
                         if wp.static(flags & GRADIENT):
                             vg = vec4()
                             if wp.static(flags & SHARED):
@@ -653,97 +691,86 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
             if wp.static(flags & MOVE):
                 vpic = head(vpic4)
                 if rigid:  # the rigid table's motion (mpm.rigid_pulses): Cayley step of the rotation
-                    vpic, vr = rigid_step(rigid_vel, mat, xp, dt)
-                    v[p] = vr
-                elif fixed[p] != 0:
+                    vpic, vr = rigid_step(G.rigid_vel, mat, xp, dt)
+                    P.v[p] = vr
+                elif P.fixed[p] != 0:
                     vpic = vec3()
-                    v[p] = vpic
+                    P.v[p] = vpic
                 else:
-                    vp = flip * (v[p] + head(dv4)) + (s(1.0) - flip) * vpic
-                    v[p] = vp
+                    flip = S.flip
+                    vp = flip * (P.v[p] + head(dv4)) + (s(1.0) - flip) * vpic
+                    P.v[p] = vp
                     if wp.static(flags & REPROJECT):
-                        mv = pack(mass[p] * vp, mass[p])
+                        mp = P.mass[p]
+                        mv = pack(mp * vp, mp)
                         for i in range(NP):
                             for j in range(NP):
                                 wij = wx[i] * wy[j]
                                 for k in range(NP):
-                                    b_mm[nb + i * sx + j * sy + k * NF] += (wij * wz[k]) * mv
-                vpic_p[p] = vpic
+                                    B.b_mm[nb + i * sx + j * sy + k * NF] += (wij * wz[k]) * mv
+                P.vpic[p] = vpic
             if wp.static(flags & GRADIENT):
                 Lp = wp.matrix_from_cols(head(c0), head(c1), head(c2))  # L = sum v_i (x) grad S_i
                 if wp.static(AX):
                     Lp[2, 2] = c3[0] / xp[0]  # v_r / r
                 if rigid:
                     Lp = mat33()
-                Fo = F[p]
+                Fo = P.F[p]
                 Fn = Fo
                 if wp.static(flags & REFERENCE):
-                    dF = Lp * F_ref[p]  # dF/dt = sum v_i (x) grad_0 S_i F_ref
+                    dF = Lp * P.F_ref[p]  # dF/dt = sum v_i (x) grad_0 S_i F_ref
                     Fn = Fo + dt * dF
                     Lp = dF * wp.inverse(Fo)
                 else:
                     Fn = (wp.identity(n=3, dtype=s) + dt * Lp) * Fo
-                L[p] = Lp
-                F[p] = Fn
+                P.L[p] = Lp
+                P.F[p] = Fn
                 if not (wp.determinant(Fn) > s(0.0)):
-                    sp = stress[p]
+                    sp = P.stress[p]
                     if not (wp.ddot(sp, sp) == s(0.0)):  # NaN too
-                        wp.atomic_min(bad, c, p)
+                        wp.atomic_min(P.bad, c, p)
         if wp.static(flags & POSITION):
-            xp = wp.min(wp.max(xp + dt * vpic_p[p], wall_lo), wall_hi)
-            x[p] = xp
+            xn = wp.min(wp.max(P.x[p] + dt * P.vpic[p], G.wall_lo), G.wall_hi)
+            P.x[p] = xn
             inside = True
             for a in range(3):
-                if not (xp[a] >= lower[a] and xp[a] <= upper[a]):
+                if not (xn[a] >= G.lower[a] and xn[a] <= G.upper[a]):
                     inside = False
             if not inside:
-                wp.atomic_min(bad, c, p)
+                wp.atomic_min(P.bad, c, p)
 
     return g2p
 
 
 @functools.cache
 def _reaction(t: WarpTypes, shape: str, NF: int) -> Any:
-    s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
+    A = kernel_structs(t)
+    s, vec3 = t.scalar, t.vec3
     h = _helpers(t, shape, NF)
     stencil, field_of, NP = h.stencil, h.field_of, h.NP
     head = vec4_helpers(t).head
 
     @transfer_kernel
-    def reaction(
-        x: wp.array(dtype=vec3),
-        mass: wp.array(dtype=s),
-        size: wp.array(dtype=vec3),
-        F: wp.array(dtype=mat33),
-        material: wp.array(dtype=wp.int32),
-        field: wp.array(dtype=wp.int32),
-        fixed: wp.array(dtype=wp.int32),
-        mat_rigid: wp.array(dtype=wp.int32),
-        react: wp.array(dtype=vec4),
-        g_c: wp.array(dtype=vec4),
-        origin: vec3,
-        inv_h: s,
-        dims: wp.vec3i,
-        begin: int,
-        preact: wp.array(dtype=vec3),
-    ):
-        """Reaction share of a rigid or fixed particle, sum_i S_ip m_p / m_i^c R_i (R from the grid
-        UPDATE pass, m^c the constraint mass, the last component of ``g_c``); a separate pass, run
-        only when the model has constraints, keeps the 27-node loop out of the gather."""
+    def reaction(P: A.Particles, G: A.Grid, begin: int):
+        """Reaction share ``P.reaction`` of a rigid or fixed particle, sum_i S_ip m_p / m_i^c R_i (R =
+        ``G.g_react`` from the grid UPDATE pass, m^c the constraint mass, the last component of ``G.g_c``;
+        the stencil at ``P.xs``); a separate pass, run only when the model has constraints, keeps the
+        27-node loop out of the gather."""
         p = begin + wp.tid()
-        if mat_rigid[material[p]] == 0 and fixed[p] == 0:
+        if G.mat_rigid[P.material[p]] == 0 and P.fixed[p] == 0:
             return
-        nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(x[p], p, size, F, origin, inv_h, dims, field_of(field, p))
-        m = mass[p]
+        nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(P.xs[p], p, P.size, P.F, G.origin, G.inv_h, G.dims,
+                                                     field_of(P.field, p))  # fmt: skip
+        m = P.mass[p]
         rs = vec3()
         for i in range(NP):
             for j in range(NP):
                 for k in range(NP):
                     n = nb + i * sx + j * sy + k * NF
-                    cm = g_c[n][3]
+                    cm = G.g_c[n][3]
                     if cm > s(0.0):
-                        rs += (wx[i] * wy[j] * wz[k] * m / cm) * head(react[n])
-        preact[p] = rs
+                        rs += (wx[i] * wy[j] * wz[k] * m / cm) * head(G.g_react[n])
+        P.reaction[p] = rs
 
     return reaction
 
@@ -821,6 +848,7 @@ def material_kernels(cls: type, t: WarpTypes, bulk_viscosity: bool = False) -> S
     stress_moduli_fn = cls.stress_moduli_function(t.precision)
     moduli_fn = cls.moduli_function(t.precision)
     BV = bulk_viscosity
+    A = kernel_structs(t)
 
     @wp.func
     def speed_of(K: s, Gm: s, J: s, prm: wp.array(dtype=s)):
@@ -840,72 +868,55 @@ def material_kernels(cls: type, t: WarpTypes, bulk_viscosity: bool = False) -> S
         return wave_speed(Fp, a0, prm, hist, p) + wp.length(vp)
 
     @kernel
-    def stress(
-        mat_id: int,
-        prm: wp.array(dtype=s),
-        F: wp.array(dtype=mat33),
-        L: wp.array(dtype=mat33),
-        fiber: wp.array(dtype=vec3),
-        s_in: wp.array2d(dtype=s),
-        s_out: wp.array2d(dtype=s),
-        material: wp.array(dtype=wp.int32),
-        sigma: wp.array(dtype=mat33),
-        vol0: wp.array(dtype=s),
-        work: wp.array(dtype=s),
-        v: wp.array(dtype=vec3),
-        dt: s,
-        begin: int,
-        c: int,
-        bad: wp.array(dtype=int),
-        speed: wp.array(dtype=s),
-        h: s,
-        c_lin: s,
-        c_quad: s,
-        bulk_q: wp.array(dtype=s),
-        bulk_work: wp.array(dtype=s),
-    ):
-        """sigma_p = law(F, L, a0, history); internal work += V (sigma_old + sigma_new)/2 : D dt of
-        the law's stress; the signal speed of the new state (the next step's CFL bound when v is
-        already the new one).
+    def stress(mat_id: int, prm: wp.array(dtype=s), P: A.Particles, G: A.Grid, S: A.Step, s_in: wp.array2d(dtype=s),
+               s_out: wp.array2d(dtype=s), begin: int, c: int):  # fmt: skip
+        """sigma_p = law(F, L, a0, history) (``P.stress``; history rows ``s_in`` -> ``s_out``); internal
+        work ``P.work`` += V (sigma_old + sigma_new)/2 : D dt of the law's stress; the signal speed of the
+        new state into ``P.speed`` (the next step's CFL bound when v is already the new one).
 
         Bulk viscosity (``bulk_viscosity``; von Neumann & Richtmyer 1950, Wilkins 1980, as in
         LS-DYNA's ``*CONTROL_BULK_VISCOSITY``): with tr D < 0 the particle carries the extra
-        pressure q = rho h (C_Q h (tr D)^2 - C_L c tr D) (0 otherwise), sigma = sigma_law - q I;
-        the energy it dissipates, V (q_old + q)/2 (-tr D) dt, goes to ``bulk_work`` (not to
-        ``work``), and the signal speed becomes Q + sqrt(Q^2 + c^2) + |v| with
-        Q = C_L c + C_Q h |tr D| (LS-DYNA's time-step bound with bulk viscosity)."""
+        pressure q = rho h (C_Q h (tr D)^2 - C_L c tr D) (0 otherwise; h = ``G.h``, C_L, C_Q =
+        ``S.c_lin``, ``S.c_quad``), sigma = sigma_law - q I; q is kept in ``P.bulk_q``, the energy it
+        dissipates, V (q_old + q)/2 (-tr D) dt, goes to ``P.bulk_work`` (not to ``work``), and the signal
+        speed becomes Q + sqrt(Q^2 + c^2) + |v| with Q = C_L c + C_Q h |tr D| (LS-DYNA's time-step bound
+        with bulk viscosity)."""
         p = begin + wp.tid()
-        if material[p] != mat_id:
+        if P.material[p] != mat_id:
             return
-        Fp = F[p]
-        Lp = L[p]
-        a0 = fiber[p]
+        dt = S.dt
+        Fp = P.F[p]
+        Lp = P.L[p]
+        a0 = P.fiber[p]
         # the stress and the moduli of the new state in one call (a law computes its invariants once)
         sig, Kn, Gn = stress_moduli_fn(Fp, Lp, a0, prm, s_in, s_out, p, dt)
         D = s(0.5) * (Lp + wp.transpose(Lp))
         J = wp.determinant(Fp)
         cw = speed_of(Kn, Gn, J, prm)
-        sig_old = sigma[p]
+        sig_old = P.stress[p]
         if wp.static(BV):
-            sig_old = sig_old + bulk_q[p] * wp.identity(n=3, dtype=s)
-        work[p] = work[p] + s(0.5) * wp.ddot(sig_old + sig, D) * vol0[p] * J * dt
+            sig_old = sig_old + P.bulk_q[p] * wp.identity(n=3, dtype=s)
+        P.work[p] = P.work[p] + s(0.5) * wp.ddot(sig_old + sig, D) * P.vol0[p] * J * dt
         if wp.static(BV):
+            h = G.h
+            c_lin = S.c_lin
+            c_quad = S.c_quad
             trD = wp.trace(Lp)
             q = s(0.0)
             Q = s(0.0)
             if trD < s(0.0):
                 q = prm[0] / J * h * (c_quad * h * trD * trD - c_lin * cw * trD)
                 Q = c_lin * cw - c_quad * h * trD
-            bulk_work[p] = bulk_work[p] - s(0.5) * (bulk_q[p] + q) * trD * vol0[p] * J * dt
-            bulk_q[p] = q
+            P.bulk_work[p] = P.bulk_work[p] - s(0.5) * (P.bulk_q[p] + q) * trD * P.vol0[p] * J * dt
+            P.bulk_q[p] = q
             sig = sig - q * wp.identity(n=3, dtype=s)
-            sigma[p] = sig
-            wp.atomic_max(speed, c, Q + wp.sqrt(Q * Q + cw * cw) + wp.length(v[p]))
+            P.stress[p] = sig
+            wp.atomic_max(P.speed, c, Q + wp.sqrt(Q * Q + cw * cw) + wp.length(P.v[p]))
         else:
-            sigma[p] = sig
-            wp.atomic_max(speed, c, cw + wp.length(v[p]))
+            P.stress[p] = sig
+            wp.atomic_max(P.speed, c, cw + wp.length(P.v[p]))
         if not wp.isfinite(wp.ddot(sig, sig)):
-            wp.atomic_min(bad, c, p)
+            wp.atomic_min(P.bad, c, p)
 
     @kernel
     def speed(

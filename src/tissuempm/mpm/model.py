@@ -18,6 +18,7 @@ from tissuempm.mpm.config import _vec3
 
 GHOST = 1
 """Ghost node layers on each side of the grid."""
+Vec3 = tuple[float, float, float]
 
 BoundaryKind = Literal["fixed", "slip", "velocity"]
 BOUNDARY_KINDS: tuple[str, ...] = ("fixed", "slip", "velocity")
@@ -112,11 +113,11 @@ class GridBoundary:
 class RigidMaterial:
     """A rigid body: a driver moved with a prescribed velocity or a free projectile.
 
-    Its particles translate with the body velocity (a driver also turns with ``Control.rigid_rotation``:
-    V + omega x (x - c), :mod:`tissuempm.mpm.rigid_pulses`); every grid node they touch takes that
-    velocity, so material sharing those nodes sticks to it (with contact, other bodies slide on
-    and separate from it). The solver reports the reaction force the rest of the model exerts
-    on it (:meth:`ExplicitSolver.diagnostics`).
+    Its particles translate with the body velocity (a driver also turns with ``Control.rigid_rotation``,
+    a free body with ``rotates=True`` by the torque on it: V + omega x (x - c), :mod:`tissuempm.mpm.rigid_pulses`,
+    :mod:`tissuempm.mpm.free_bodies`); every grid node they touch takes that velocity, so material sharing
+    those nodes sticks to it (with contact, other bodies slide on and separate from it). The solver reports
+    the reaction force the rest of the model exerts on it (:meth:`ExplicitSolver.diagnostics`).
 
     Attributes
     ----------
@@ -127,27 +128,107 @@ class RigidMaterial:
         Mass density [kg/m^3] (the mass diagnostics; the inertia of a free body).
     free
         False (default): a driver at ``velocity``. True: a free rigid projectile whose velocity
-        changes with the reaction force on it and gravity, V += dt (R / M + g), translation only
+        changes with the reaction force on it and gravity, V += dt (R / M + g)
         (:mod:`tissuempm.mpm.free_bodies`).
+    rotates
+        Free bodies only. False (default): translation only (the torque on the body is ignored, as
+        before rotation was added). True: the body also turns, its angular momentum changing by the
+        torque of the contact and bonding forces about its centre of mass (Euler's equations,
+        :mod:`tissuempm.mpm.free_bodies`).
+    mass
+        Free bodies only: the body's mass M [kg] (> 0), used instead of the sum of its particle
+        masses; None: that sum. Without ``inertia`` the seeded inertia is scaled by M / (seeded mass).
+    inertia
+        Rotating free bodies only: the inertia tensor [kg m^2] about the centre of mass in the
+        axes x, y, z of the body's position at t = 0, as three principal values (along x, y, z) or a
+        symmetric positive definite 3 x 3 matrix whose principal values obey the triangle
+        inequality (I1 <= I2 + I3: those of any mass distribution); None: the seeded particles'
+        (their point masses plus each particle box's own inertia). On a symmetry face, as the mass,
+        the part on the grid's.
+    angular_velocity
+        Rotating free bodies only: the angular velocity omega [rad/s] at t = 0 (when the particles'
+        velocities carry no rotation of their own, as a scenario body's uniform velocity; else theirs).
     """
 
     kind = "rigid"
     velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     density: float = 1000.0
     free: bool = False
+    rotates: bool = False
+    mass: float | None = None
+    inertia: Any = None
+    angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "velocity", _vec3("RigidMaterial.velocity", self.velocity))
+        object.__setattr__(self, "angular_velocity", _vec3("RigidMaterial.angular_velocity", self.angular_velocity))
         if not (math.isfinite(self.density) and self.density > 0):
             raise ValueError(f"RigidMaterial.density = {self.density!r}: must be > 0 kg/m^3")
-        if not isinstance(self.free, bool):
-            raise ValueError(f"RigidMaterial.free = {self.free!r}: must be true or false")
+        for name in ("free", "rotates"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"RigidMaterial.{name} = {getattr(self, name)!r}: must be true or false")
         if self.free and any(self.velocity):
             raise ValueError(f"RigidMaterial.velocity = {list(self.velocity)}: a free rigid body starts with the "
                              "velocity of its particles (the body's velocity); leave the material's at 0")
+        if self.rotates and not self.free:
+            raise ValueError("RigidMaterial.rotates = True: only a free rigid body (free = True) turns by the torque "
+                             "on it; a driver turns with a prescribed rotation (Control.rigid_rotation)")
+        if self.mass is not None:
+            m = self.mass
+            if isinstance(m, bool) or not isinstance(m, (int, float)) or not (math.isfinite(m) and m > 0):
+                raise ValueError(f"RigidMaterial.mass = {m!r}: must be > 0 kg")
+            if not self.free:
+                raise ValueError(f"RigidMaterial.mass = {m!r} kg: applies to a free rigid body (free = True)")
+            object.__setattr__(self, "mass", float(m))
+        if self.inertia is not None:
+            object.__setattr__(self, "inertia", inertia_tensor(self.inertia, "RigidMaterial.inertia"))
+        given = {"inertia": self.inertia is not None, "angular_velocity": any(self.angular_velocity)}
+        for name in (n for n, g in given.items() if g):
+            if not (self.free and self.rotates):
+                raise ValueError(f"RigidMaterial.{name}: applies to a free rigid body that rotates "
+                                 "(free = True, rotates = True)")  # fmt: skip
 
     def to_dict(self) -> dict[str, Any]:
-        return {"kind": "rigid", "velocity": list(self.velocity), "density": self.density, "free": self.free}
+        out: dict[str, Any] = {"kind": "rigid", "velocity": list(self.velocity), "density": self.density,
+                               "free": self.free}  # fmt: skip
+        if self.rotates:  # only when set, so the materials of older runs hash as before (restart checks)
+            out["rotates"] = True
+        if self.mass is not None:
+            out["mass"] = self.mass
+        if self.inertia is not None:
+            out["inertia"] = [list(row) for row in self.inertia]
+        if any(self.angular_velocity):
+            out["angular_velocity"] = list(self.angular_velocity)
+        return out
+
+
+def inertia_tensor(value: Any, name: str = "inertia") -> tuple[Vec3, Vec3, Vec3]:
+    """A body's inertia tensor [kg m^2] from three principal values (along x, y, z) or a 3 x 3 matrix,
+    checked: finite, symmetric (to 1e-9 of its largest entry), positive definite, and with principal
+    values I1 <= I2 + I3 (those of any mass distribution; equality for a plane body), to 1e-9 relative.
+    Raises ``ValueError`` naming ``name``, the value and the valid range."""
+    try:
+        a = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} = {value!r}: must be three principal values or a 3 x 3 matrix [kg m^2]") from None
+    if a.shape == (3,):
+        a = np.diag(a)
+    if a.shape != (3, 3) or not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} = {value!r}: must be three finite principal values or a finite 3 x 3 matrix "
+                         "[kg m^2]")  # fmt: skip
+    scale = float(np.abs(a).max())
+    if not np.all(np.abs(a - a.T) <= 1e-9 * scale):
+        raise ValueError(f"{name} = {a.tolist()}: must be symmetric (I_ij = I_ji)")
+    a = 0.5 * (a + a.T)
+    ev = np.linalg.eigvalsh(a)
+    if not ev[0] > 0:
+        raise ValueError(f"{name} = {a.tolist()}: must be positive definite (principal values {ev.tolist()} kg m^2, "
+                         "each must be > 0)")  # fmt: skip
+    if ev[2] > (ev[0] + ev[1]) * (1 + 1e-9):
+        raise ValueError(f"{name} = {a.tolist()}: principal values {ev.tolist()} kg m^2 break the triangle "
+                         f"inequality I3 <= I1 + I2 ({ev[2]:g} > {ev[0] + ev[1]:g}) that every mass distribution obeys")
+    rows = [(float(r[0]), float(r[1]), float(r[2])) for r in a]
+    return rows[0], rows[1], rows[2]
 
 
 def _array(name: str, value: Any, shape: tuple[int, ...], dtype: Any = float) -> np.ndarray:

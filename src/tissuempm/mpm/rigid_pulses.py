@@ -45,9 +45,9 @@ displacement is the amplitude curve's integral). omega_step differs from the mid
 O(dt^2): the head's angular velocity and acceleration that :mod:`tissuempm.io.head_history` reports
 follow the input pulse to that order.
 
-Limits: the axis is fixed in space; a free rigid body does not rotate (translation only,
-:mod:`tissuempm.mpm.free_bodies`); explicit integrator only (the implicit solver's rigid constraint
-is translational).
+Limits: the axis is fixed in space; explicit integrator only (the implicit solver's rigid constraint
+is translational). A free rigid body with ``rotates=True`` turns by the torque on it through the same
+table, nodal field and Cayley step, its omega from Euler's equations (:mod:`tissuempm.mpm.free_bodies`).
 
 References: Cayley transform as a rotation integrator: Simo JC, Wong KK (1991) Unconditionally stable
 algorithms for rigid body dynamics that exactly preserve energy and momentum. Int J Numer Methods Eng

@@ -41,7 +41,7 @@ import warp as wp
 
 from tissuempm.materials.base import Material
 from tissuempm.mpm import kernels as K
-from tissuempm.mpm.axisymmetric import FBAR_AXISYMMETRIC, scale_extensive, scale_removed
+from tissuempm.mpm.axisymmetric import scale_extensive, scale_removed
 from tissuempm.mpm.config import Control, SolverConfig
 from tissuempm.mpm.contact import contact_kernel
 from tissuempm.mpm.errors import InstabilityError
@@ -145,8 +145,6 @@ class ExplicitSolver:
         self._erodes = bool(np.any(slots >= 0))
         self.erode_slot: wp.array = wp.array(slots, dtype=wp.int32, device=self.device)
         self.anti_locking = cfg.anti_locking or ("none" if self.axisymmetric else self.default_anti_locking)
-        if self.axisymmetric and self.anti_locking == "fbar":
-            raise ValueError(FBAR_AXISYMMETRIC)
         self.volumetric = CellAverage(self) if self.anti_locking == "fbar" else None
         # grid faces
         kinds = np.zeros(6, dtype=np.int32)
@@ -167,7 +165,7 @@ class ExplicitSolver:
                 lo[a] = grid.origin[a]
             if kinds[2 * a + 1] in (_BC_CODE["fixed"], _BC_CODE["slip"]):
                 hi[a] = grid.upper[a]
-        self.wall_lo, self.wall_hi = self.t.vec3(*lo), self.t.vec3(*hi)
+        walls = self.t.vec3(*lo), self.t.vec3(*hi)  # the kernels' G.wall_lo, G.wall_hi (properties wall_lo, wall_hi)
         self.bc_vel = warp_array(self._bc_velocity, "vec3", self.t, self.device)
         # global grid arrays
         z = lambda dt: wp.zeros(self.n_nodes, dtype=dt, device=self.device)  # noqa: E731
@@ -180,6 +178,20 @@ class ExplicitSolver:
         self._dirty = False  # chunk buffers hold data of an interrupted step
         self._gravity = self.t.vec3(*cfg.gravity)
         self._body: wp.array | None = None
+        # the kernels' argument structs (mpm.kernels.kernel_structs): the grid's and the step's, one per solver
+        self.structs = K.kernel_structs(self.t)
+        G = self.grid_args = self.structs.Grid()
+        G.origin, G.h, G.inv_h, G.dims = self.origin, self.h, 1.0 / self.h, self.dims
+        G.lower, G.upper, (G.wall_lo, G.wall_hi) = self.lower, self.upper, walls
+        G.window = int(self.is_cpu)  # CPU chunks track their scatter windows
+        G.mat_rigid, G.rigid_vel = self.mat_rigid, self.rigid_vel
+        G.n_bc, G.bc_kind, G.bc_vel = len(self._bc_face), self.bc_kind, self.bc_vel
+        G.g_mm, G.g_c, G.g_x, G.g_react = self.g_mm, self.g_c, self.g_x, self.g_react
+        G.g_vinc, G.g_vnew, G.g_vgrad = self.g_vinc, self.g_vnew, self.g_vgrad
+        S = self.step_args = self.structs.Step()
+        S.gravity, S.damping, S.flip = self._gravity, cfg.damping, cfg.flip
+        S.c_lin, S.c_quad = cfg.bulk_viscosity_linear, cfg.bulk_viscosity_quadratic
+        self._row_args: list[Any] = []  # per chunk: its rows of the chunk buffers (structs.Rows)
         self.reactions = True
         """Whether a step computes the constrained particles' reaction shares (``State.reaction``,
         a pass over the particles when the model has rigid or fixed ones). A caller that reads them
@@ -191,6 +203,26 @@ class ExplicitSolver:
         laws = [k for _, _, mk, _ in self.laws for k in (mk.stress, mk.speed)]
         if load:
             self._ready_all([self.kern.rigid_speed, self.kern.reaction, *laws])
+
+    @property
+    def wall_lo(self) -> Any:
+        """Wall planes [m] of the lower grid faces per axis (-inf where a face has no slip or fixed
+        condition): G2P keeps positions on the grid side of them. Setting it (or :attr:`wall_hi`)
+        changes the kernels' grid struct."""
+        return self.grid_args.wall_lo
+
+    @wall_lo.setter
+    def wall_lo(self, value: Any) -> None:
+        self.grid_args.wall_lo = value
+
+    @property
+    def wall_hi(self) -> Any:
+        """Wall planes [m] of the upper grid faces per axis (+inf where there is no wall; see :attr:`wall_lo`)."""
+        return self.grid_args.wall_hi
+
+    @wall_hi.setter
+    def wall_hi(self, value: Any) -> None:
+        self.grid_args.wall_hi = value
 
     # ------------------------------------------------------------------------------ setup
     def _parameters(self, law: Material) -> wp.array:
@@ -228,6 +260,13 @@ class ExplicitSolver:
         self._n_buf = n_chunks
         # per-chunk 1-D row views (kernels index them with the flat node index only)
         self._rows = [[b[c] for b in (self.b_mm, self.b_f, self.b_c, self.b_x)] for c in range(n_chunks)]
+        G = self.grid_args
+        G.b_mm, G.b_f, G.b_c, G.b_x = self.b_mm, self.b_f, self.b_c, self.b_x
+        self._row_args = []
+        for rows in self._rows:
+            r = self.structs.Rows()
+            r.b_mm, r.b_f, r.b_c, r.b_x = rows
+            self._row_args.append(r)
 
     def _buffers(self) -> tuple[wp.array, ...]:
         """The chunk buffers: (m v, m), force and constraint records, and with several velocity
@@ -278,31 +317,19 @@ class ExplicitSolver:
         }  # fmt: skip
         driven = np.array([self.model.is_rigid(i) and not self.model.is_free(i) for i in range(n_mat)])[pd.material]
         arrays["v"][driven] = self._rigid_velocity[pd.material[driven]]  # free bodies keep their particles' v
-        st = self._allocate_state(arrays)
+        st = State.allocate(arrays, self.t, self.device, extra=self.extra_fields, n_state=self.model.n_state,
+                            materials=self.model.materials)  # fmt: skip
+        self._layout(st, arrays["material"], arrays["fixed"], arrays["mass"])
         if self.config.sort_interval:
             self._sort(st)
         return st
 
-    def _allocate_state(self, arrays: dict[str, np.ndarray]) -> State:
-        st = State()
-        defaults = {"xref": "x", "Fref": "F"}  # a grid reset now; acceleration and bulk viscosity 0
-        for name in self.extra_fields:
-            if name not in arrays:
-                src = defaults.get(name)
-                n = len(arrays["v"])
-                arrays[name] = np.array(arrays[src]) if src else np.zeros((n, *OPTIONAL_FIELDS[name][1]))
-        st.extra = self.extra_fields
-        for name in st.fields:
-            kind = PARTICLE_FIELDS[name][0] if name in PARTICLE_FIELDS else OPTIONAL_FIELDS[name][0]
-            setattr(st, name, warp_array(arrays[name], kind, self.t, self.device))
-        hist = np.asarray(arrays["state"], dtype=float).reshape(st.n, -1)
-        if hist.shape[1] != self.model.n_state:
-            raise ValueError(f"state has {hist.shape[1]} history columns, the model needs {self.model.n_state}")
-        st.history = warp_array(hist, "2d", self.t, self.device)
-        st.history_next = warp_array(hist, "2d", self.t, self.device)
-        st.materials = self.model.materials
-        self._layout(st, arrays["material"], arrays["fixed"], arrays["mass"])
-        return st
+    def attach(self, state: State) -> None:
+        """Set ``state`` (from :meth:`State.allocate <tissuempm.mpm.state.State.allocate>` with this
+        solver's ``extra_fields``, as :meth:`State.from_numpy <tissuempm.mpm.state.State.from_numpy>`
+        does) up for this solver: its chunks, chunk buffers, per-chunk slots, the kernels' particle
+        struct and the free bodies' masses (:meth:`initial_state` does this for a new state)."""
+        self._layout(state, state.material.numpy(), state.fixed.numpy(), state.mass.numpy())
 
     def _layout(self, st: State, material: np.ndarray, fixed: np.ndarray, mass: np.ndarray) -> None:
         """What depends on the particle count and set (a new state, or after :meth:`remove`):
@@ -325,15 +352,33 @@ class ExplicitSolver:
         st.speed = wp.zeros(slots, dtype=self.t.scalar, device=self.device)
         st.drop = wp.zeros(slots, dtype=int, device=self.device)
         # host views of the per-chunk arrays (read and reset every step: a view costs nothing on the CPU)
-        st.host = {k: getattr(st, k).numpy() for k in ("lo", "hi", "bad", "speed", "drop")} if self.is_cpu else None
+        st.host = {k: a.numpy() for k, a in st.slots().items()} if self.is_cpu else None
+        st.kernel_args = self._particle_args(st)
         if self.free is not None:
             self.free.attach(st)
+
+    def _particle_args(self, st: State) -> Any:
+        """The kernels' ``Particles`` struct (:func:`~tissuempm.mpm.kernels.kernel_structs`) of ``st``'s
+        arrays and per-chunk slots (stencils at the last reset's positions on a grid without reset)."""
+        P = self.structs.Particles()
+        P.x, P.xs, P.v, P.vpic = st.x, self._stencil_positions(st), st.v, st.vpic
+        P.mass, P.vol0, P.size = st.mass, st.volume0, st.size
+        P.F, P.L, P.stress = st.F, st.L, st.stress
+        P.F_ref = _carried(st.Fref, "Fref") if self.reference is not None else st.F
+        P.material, P.field, P.fixed, P.fiber = st.material, st.field, st.fixed, st.fiber
+        P.work, P.reaction = st.work, st.reaction
+        if self.config.bulk_viscosity:
+            P.bulk_q, P.bulk_work = _carried(st.bulk_q, "bulk_q"), _carried(st.bulk_work, "bulk_work")
+        else:  # placeholders, never read
+            P.bulk_q, P.bulk_work = st.work, st.work
+        P.n_chunks, P.lo, P.hi, P.bad, P.speed = len(st.chunks), st.lo, st.hi, st.bad, st.speed
+        return P
 
     # ------------------------------------------------------------------------------ helpers
     @staticmethod
     def _slots(st: State, name: str) -> np.ndarray:
         """Values of the per-chunk array ``name``: a live view on the CPU, a copy from a GPU."""
-        return st.host[name] if st.host is not None else getattr(st, name).numpy()
+        return st.host[name] if st.host is not None else st.slots()[name].numpy()
 
     @staticmethod
     def _fill(st: State, name: str, value: float) -> None:
@@ -341,7 +386,7 @@ class ExplicitSolver:
         if st.host is not None:
             st.host[name].fill(value)
         else:
-            getattr(st, name).fill_(value)
+            st.slots()[name].fill_(value)
 
     def _parallel(self, tasks: list[Callable[[], None]]) -> None:
         """Run ``tasks`` on the pool's threads, the last one on the calling thread."""
@@ -470,23 +515,21 @@ class ExplicitSolver:
         if self._body is not None and flags & K.FORCE:
             flags |= K.BODY
         p2g = self._ready(kern.p2g(flags))
-        common = [self.origin, self.t.scalar(1.0 / self.h), self.dims]
-        window = int(self.is_cpu)
-        xs = self._stencil_positions(st)
+        window = self.is_cpu
         stress = self.reference.force_stress(st) if self.reference is not None and flags & K.FORCE else st.stress
+        S = self.step_args
+        if S.body is not body:
+            S.body = body
+        if S.force_stress is not stress:
+            S.force_stress = stress
+        args = [st.kernel_args, self.grid_args, S]
 
         def task(c: int, b: int, e: int) -> Callable[[], None]:
             def run() -> None:
                 slot = c * K.SLOT
                 if window and flags & K.MASS:
                     st.host["lo"][slot], st.host["hi"][slot] = self.n_nodes, -1  # type: ignore[index]  # set on a CPU
-                self._launch(
-                    p2g,
-                    e - b,
-                    [xs, st.v, st.mass, st.volume0, st.size, st.F, stress, st.material, st.field, st.fixed,
-                     self.mat_rigid, self.rigid_vel, body, *common, b, slot, window, st.lo, st.hi, *self._rows[c]],
-                    c,
-                )  # fmt: skip
+                self._launch(p2g, e - b, [*args, self._row_args[c], b, slot], c)
 
             return run
 
@@ -513,13 +556,9 @@ class ExplicitSolver:
         start, stop = self._window(st)
         s = self.t.scalar
         kernel = self._ready(self.kern.grid(flags, mode))
-        args = [
-            len(st.chunks), st.lo, st.hi,
-            self.b_mm, self.b_f, self.b_c, self.g_mm, self.g_c,
-            self.g_vgrad if mode == K.VELOCITY else self.g_vinc, self.g_vnew, self.g_react,
-            s(dt), self._gravity, s(self.config.damping), s(st.min_node_mass), self.dims,
-            len(self._bc_face), self.bc_kind, self.bc_vel, self.b_x, self.g_x,
-        ]  # fmt: skip
+        S = self.step_args
+        S.dt, S.gravity, S.min_mass = s(dt), self._gravity, s(st.min_node_mass)
+        args = [st.kernel_args, self.grid_args, S]
         self._split(start, stop, lambda a, b: self._launch(kernel, b - a, [a, *args], a))
         if self.n_fields > 1:
             self._contact(st, mode, dt, start, stop)
@@ -543,7 +582,7 @@ class ExplicitSolver:
     def _stencil_positions(self, st: State) -> wp.array:
         """Positions at which the shape functions are evaluated: the current ones, or the last
         reset's on a grid that is not reset."""
-        return st.xref if self.reference is not None else st.x
+        return _carried(st.xref, "xref") if self.reference is not None else st.x
 
     def _gather(self, st: State, flags: int, dt: float, v_grad: wp.array) -> list[Callable[[], None]]:
         """Per chunk: G2P of the parts ``flags`` (MOVE, GRADIENT, POSITION; MOVE | REPROJECT also
@@ -552,30 +591,20 @@ class ExplicitSolver:
         s = self.t.scalar
         xs = self._stencil_positions(st)
         passes = self._gather_passes(flags, v_grad is self.g_vnew)
-        kernels = [(self._ready(self.kern.g2p(f)), xs if f & (K.MOVE | K.GRADIENT) else st.x) for f in passes]
+        kernels = [self._ready(self.kern.g2p(f)) for f in passes]  # stencils at P.xs, positions P.x
         reaction = flags & K.MOVE and st.constrained and (self.reactions or self.free is not None)
+        S = self.step_args
+        S.dt = s(dt)
+        P, G = st.kernel_args, self.grid_args
 
         def task(c: int, b: int, e: int) -> Callable[[], None]:
             def run() -> None:
                 if reaction:  # before MOVE: the stencil is at the old position
-                    self._launch(
-                        self.kern.reaction,
-                        e - b,
-                        [xs, st.mass, st.size, st.F, st.material, st.field, st.fixed, self.mat_rigid, self.g_react,
-                         self.g_c, self.origin, s(1.0 / self.h), self.dims, b, st.reaction],
-                        c,
-                    )  # fmt: skip
-                F_ref = st.Fref if self.reference is not None else st.F
-                for g2p, x in kernels:
-                    self._launch(
-                        g2p,
-                        e - b,
-                        [x, st.v, st.vpic, st.F, F_ref, st.L, st.stress, st.size, st.material, st.field, st.fixed,
-                         self.mat_rigid, self.rigid_vel, self.g_vinc, self.g_vnew, v_grad, st.mass, self._rows[c][0],
-                         self.origin, s(1.0 / self.h), self.dims, self.lower, self.upper, self.wall_lo, self.wall_hi,
-                         b, c * K.SLOT, s(dt), s(self.config.flip), st.bad],
-                        c,
-                    )  # fmt: skip
+                    self._launch(self.kern.reaction, e - b, [P, G, b], c)
+                    if self.free is not None:  # rotating free bodies: force and torque (mpm.free_bodies)
+                        self.free.share(st, c, b, e, xs)
+                for g2p in kernels:
+                    self._launch(g2p, e - b, [P, G, S, self._row_args[c], v_grad, b, c * K.SLOT], c)
 
             return run
 
@@ -611,7 +640,7 @@ class ExplicitSolver:
             out += [contact_kernel(self.t, mode, self.n_fields, self.config.shape, self.axisymmetric) for mode in modes]
         out += [kern.reaction, kern.rigid_speed] + [k for _, _, mk, _ in self.laws for k in (mk.stress, mk.speed)]
         out += self.volumetric.kernels() if self.volumetric is not None else []
-        return out + ([self.free.kern.sum_reactions, self.free.kern.set_velocity] if self.free is not None else [])
+        return out + (self.free.kernels() if self.free is not None else [])
 
     def sort_kernels(self) -> list[Any]:
         """The kernels of sorting the particles by cell (:meth:`_sort`: the cell keys, a gather per
@@ -651,22 +680,15 @@ class ExplicitSolver:
     def _constitutive(self, st: State, dt: float) -> list[Callable[[], None]]:
         """Per chunk: each law's stress update on its own particles, with their signal speeds
         (``speed`` is zeroed here); :meth:`_gather_and_stress` runs them and swaps the history."""
-        s = self.t.scalar
         self._fill(st, "speed", 0)
-        cfg = self.config
-        bulk = [s(self.h), s(cfg.bulk_viscosity_linear), s(cfg.bulk_viscosity_quadratic)]
-        bulk += [st.bulk_q, st.bulk_work] if cfg.bulk_viscosity else [st.work, st.work]  # placeholders when off
+        S = self.step_args
+        S.dt = self.t.scalar(dt)
+        args = [st.kernel_args, self.grid_args, S]
 
         def task(c: int, b: int, e: int) -> Callable[[], None]:
             def run() -> None:
                 for i, _, mk, prm in self.laws:
-                    self._launch(
-                        mk.stress,
-                        e - b,
-                        [i, prm, st.F, st.L, st.fiber, st.history, st.history_next, st.material, st.stress,
-                         st.volume0, st.work, st.v, s(dt), b, c * K.SLOT, st.bad, st.speed, *bulk],
-                        c,
-                    )  # fmt: skip
+                    self._launch(mk.stress, e - b, [i, prm, *args, st.history, st.history_next, b, c * K.SLOT], c)
                 self._rigid_speed(st, c, b, e)
 
             return run
@@ -825,12 +847,24 @@ class ExplicitSolver:
         else each time the clock passes a multiple of ``callback_interval`` [s].
         ``control`` may be a :class:`Control` or a function of the state returning one.
         """
+        return self.run_steps(self.step, state, t_end, callback, callback_interval, control)
+
+    @staticmethod
+    def run_steps(
+        step: Callable[[State, float | None, Control | None], float],
+        state: State,
+        t_end: float,
+        callback: Callable[[State], Any] | None = None,
+        callback_interval: float | None = None,
+        control: Control | Callable[[State], Control] | None = None,
+    ) -> State:
+        """:meth:`run` with the integrator's ``step(state, dt, control)`` (the implicit solver's too)."""
         nxt = None
         if callback_interval is not None:
             nxt = (math.floor(state.time / callback_interval + 1e-9) + 1) * callback_interval
         while state.time < t_end:
             ctl = control(state) if callable(control) else control
-            self.step(state, None, ctl)
+            step(state, None, ctl)
             if callback is not None:
                 if nxt is None:
                     callback(state)
@@ -891,7 +925,7 @@ class ExplicitSolver:
             "momentum": (md[:, None] * v).sum(axis=0),
             "kinetic_energy": float(0.5 * (md * (v * v).sum(axis=1)).sum()),
             "internal_work": float(st.work.numpy()[~rigid].sum()),
-            "bulk_viscosity_work": float(st.bulk_work.numpy().sum()) if self.config.bulk_viscosity else 0.0,
+            "bulk_viscosity_work": float(st.bulk_work.numpy().sum()) if st.bulk_work is not None else 0.0,
             "strain_energy": None,
             "reaction": {i: R[mat == i].sum(axis=0) for i in range(len(self.model.materials))
                          if self.model.is_rigid(i)},
@@ -931,6 +965,15 @@ class ExplicitSolver:
             self.close()
         except Exception:
             pass
+
+
+def _carried(array: wp.array | None, name: str) -> wp.array:
+    """``array``, an optional state array (:data:`~tissuempm.mpm.state.OPTIONAL_FIELDS`) that the solver's
+    options need; a state allocated for a solver with other options lacks it."""
+    if array is None:
+        raise ValueError(f"the state carries no {name!r} array: it was allocated for a solver with other options "
+                         "(State.allocate with this solver's extra_fields, or State.from_numpy with this solver)")
+    return array
 
 
 def removed_summary(removed: np.ndarray) -> dict[str, dict[str, Any]]:

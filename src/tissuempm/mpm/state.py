@@ -9,7 +9,9 @@ frames) plus ``order`` (the ids in storage order), from which
 from ``to_numpy()`` data continues bit-identically on the CPU.
 """
 
-from typing import TYPE_CHECKING, Any
+import dataclasses
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 import warp as wp
@@ -17,9 +19,30 @@ import warp as wp
 from tissuempm.materials.base import Material
 from tissuempm.materials.failure import NO_FAILURE_MODEL
 from tissuempm.mpm.kernels import gather_kernel
+from tissuempm.precision import WarpTypes
 
 if TYPE_CHECKING:  # pragma: no cover
-    from tissuempm.mpm.solver import ExplicitSolver
+    from tissuempm.mpm.model import Model
+
+
+class StateSolver(Protocol):
+    """What :meth:`State.from_numpy` needs of a solver (:class:`~tissuempm.mpm.solver.ExplicitSolver`,
+    :class:`~tissuempm.mpm.implicit.ImplicitSolver`)."""
+
+    @property
+    def model(self) -> "Model": ...
+
+    @property
+    def t(self) -> WarpTypes: ...
+
+    @property
+    def device(self) -> str: ...
+
+    @property
+    def extra_fields(self) -> tuple[str, ...]: ...
+
+    def attach(self, state: "State") -> None: ...
+
 
 # name -> (kind, components) of the particle arrays that travel through to_numpy/from_numpy
 PARTICLE_FIELDS: dict[str, tuple[str, tuple[int, ...]]] = {
@@ -63,6 +86,8 @@ pressure [Pa] of the last step and the energy it has dissipated [J] (:class:`~ti
 and ``peak_mps``, ``peak_von_mises`` and their ``_time``, the peak maximum principal Green strain [-]
 and von Mises stress [Pa] over the run and when each was reached [s] (``SolverConfig.track``,
 :mod:`tissuempm.mpm.tracking`). They travel through sorting, :meth:`State.to_numpy` and restarts."""
+OPTIONAL_DEFAULTS: dict[str, str] = {"xref": "x", "Fref": "F"}
+"""The optional arrays that start as a copy of another (a grid reset at the start or restart); the others start at 0."""
 REMOVAL_REASONS: tuple[str, ...] = ("outflow", "eroded")
 """Why particles are taken out of a run (:meth:`State.remove`): ``"outflow"``, they left the grid
 through a face without a wall (``SolverConfig.outflow = "remove"``); ``"eroded"``, their law
@@ -72,8 +97,22 @@ REMOVAL_COLUMNS: tuple[str, ...] = ("count", "mass", "momentum_x", "momentum_y",
 (count, mass [kg], momentum [kg m/s], kinetic energy [J], from their velocity at removal)."""
 
 
+def _no_removals() -> np.ndarray:
+    return np.zeros((len(REMOVAL_REASONS), len(REMOVAL_COLUMNS)))
+
+
+@dataclasses.dataclass(eq=False, repr=False)
 class State:
-    """Particle arrays (Warp, on the solver's device) plus the clock.
+    """Particle arrays (Warp, on the solver's device, storage order) plus the clock: Newton's State,
+    next to the static :class:`~tissuempm.mpm.model.Model` and the step inputs
+    :class:`~tissuempm.mpm.config.Control`.
+
+    Every array a state can hold is declared here: the :data:`PARTICLE_FIELDS` (always there), the
+    history, and the :data:`OPTIONAL_FIELDS` (None unless the solver carries them, its
+    ``extra_fields``). :meth:`allocate` builds a state from NumPy arrays; the solver then sets up its
+    chunks, per-chunk slots and kernel structs (:meth:`ExplicitSolver.attach
+    <tissuempm.mpm.solver.ExplicitSolver.attach>`, which :meth:`~ExplicitSolver.initial_state` and
+    :meth:`from_numpy` call).
 
     Attributes
     ----------
@@ -93,20 +132,18 @@ class State:
         Accumulated internal (stress) work [J] = integral of V sigma : D dt.
     reaction : wp.array(vec3)
         Share of the constraint reaction force [N] on rigid and fixed particles.
+    vpic : wp.array(vec3)
+        PIC velocity of the last gather [m/s] (the position update's).
     history, history_next : wp.array2d(scalar)
         Material history (n, n_state_max), current and scratch buffer (swapped each step).
+    xref, Fref, acc, bulk_q, bulk_work, peak_mps, peak_mps_time, peak_von_mises, peak_von_mises_time : wp.array or None
+        The :data:`OPTIONAL_FIELDS` (None when the solver does not carry them).
     time : float
         Simulated time [s].
     step : int
         Steps taken.
     dt_ref : float or None
         First stable time step [s] (reference for the dt-collapse check).
-    constrained : bool
-        Whether any particle is rigid or fixed (then reaction shares are gathered).
-    speed_step : int or None
-        Step count at which the per-chunk ``speed`` maxima hold the signal speeds of the current
-        particle data (the USL and MUSL stress pass computes them for the next step's CFL bound).
-        Set it to None after changing ``v``, ``F`` or ``history`` by hand between steps.
     removed : np.ndarray
         (len(REMOVAL_REASONS), len(REMOVAL_COLUMNS)) float64: the deformable particles removed so
         far, per reason (:data:`REMOVAL_REASONS`), and what they carried (:data:`REMOVAL_COLUMNS`).
@@ -115,20 +152,159 @@ class State:
     removed_rigid : int
         Rigid-body particles removed (they left the grid); a free body's mass is that of the
         particles it has left.
+    materials : list
+        The model's materials (:meth:`to_numpy`'s failure codes).
+    chunks : list of (begin, end)
+        The solver's particle chunks (set with the slots below when the solver attaches the state).
+    min_node_mass : float
+        Nodal mass [kg] below which a node counts as empty.
+    constrained : bool
+        Whether any particle is rigid or fixed (then reaction shares are gathered).
+    speed_step : int or None
+        Step count at which the per-chunk ``speed`` maxima hold the signal speeds of the current
+        particle data (the USL and MUSL stress pass computes them for the next step's CFL bound).
+        Set it to None after changing ``v``, ``F`` or ``history`` by hand between steps.
+    lo, hi, bad, speed, drop : wp.array
+        Per-chunk slots (one per chunk, ``kernels.SLOT`` apart): scatter window, first bad particle,
+        maximum signal speed [m/s], particles to remove; ``host`` their NumPy views on the CPU (else None).
+    code : wp.array(int32)
+        Removal codes of the last classification (:mod:`tissuempm.mpm.removal`).
+    kernel_args : Warp struct
+        The ``Particles`` struct of :func:`tissuempm.mpm.kernels.kernel_structs` holding this state's
+        arrays, which the transfer and stress kernels take (built by the solver, rebuilt after a removal).
     """
 
-    def __init__(self) -> None:
-        self.time = 0.0
-        self.step = 0
-        self.dt_ref: float | None = None
-        self.chunks: list[tuple[int, int]] = []
-        self.min_node_mass = 0.0
-        self.constrained = False
-        self.speed_step: int | None = None
-        self.host: dict[str, np.ndarray] | None = None
-        self.extra: tuple[str, ...] = ()  # names of the OPTIONAL_FIELDS this state carries
-        self.removed = np.zeros((len(REMOVAL_REASONS), len(REMOVAL_COLUMNS)))
-        self.removed_rigid = 0
+    x: wp.array
+    x0: wp.array
+    v: wp.array
+    mass: wp.array
+    volume0: wp.array
+    size: wp.array
+    F: wp.array
+    L: wp.array
+    stress: wp.array
+    material: wp.array
+    fiber: wp.array
+    fixed: wp.array
+    field: wp.array
+    work: wp.array
+    reaction: wp.array
+    vpic: wp.array
+    id: wp.array
+    history: wp.array
+    history_next: wp.array
+    xref: wp.array | None = None
+    Fref: wp.array | None = None
+    acc: wp.array | None = None
+    bulk_q: wp.array | None = None
+    bulk_work: wp.array | None = None
+    peak_mps: wp.array | None = None
+    peak_mps_time: wp.array | None = None
+    peak_von_mises: wp.array | None = None
+    peak_von_mises_time: wp.array | None = None
+    time: float = 0.0
+    step: int = 0
+    dt_ref: float | None = None
+    removed: np.ndarray = dataclasses.field(default_factory=_no_removals)
+    removed_rigid: int = 0
+    materials: list[Any] = dataclasses.field(default_factory=list)
+    # set by the solver that attaches the state (ExplicitSolver.attach, ExplicitSolver.remove)
+    chunks: list[tuple[int, int]] = dataclasses.field(default_factory=list)
+    min_node_mass: float = 0.0
+    constrained: bool = False
+    speed_step: int | None = None
+    host: dict[str, np.ndarray] | None = None
+    lo: wp.array = dataclasses.field(init=False)
+    hi: wp.array = dataclasses.field(init=False)
+    bad: wp.array = dataclasses.field(init=False)
+    speed: wp.array = dataclasses.field(init=False)
+    drop: wp.array = dataclasses.field(init=False)
+    code: wp.array = dataclasses.field(init=False)
+    kernel_args: Any = dataclasses.field(default=None, init=False)
+
+    @classmethod
+    def allocate(
+        cls,
+        arrays: Mapping[str, Any],
+        t: WarpTypes,
+        device: str,
+        *,
+        extra: Sequence[str] = (),
+        n_state: int | None = None,
+        materials: Sequence[Any] = (),
+    ) -> "State":
+        """A state on ``device`` in precision ``t`` from NumPy ``arrays`` (storage order): every key of
+        :data:`PARTICLE_FIELDS` and ``state`` (the history, (n, n_state)), and the
+        :data:`OPTIONAL_FIELDS` named in ``extra`` (given, or a grid reset, :data:`OPTIONAL_DEFAULTS`,
+        or 0). ``n_state``: the history columns the model needs (checked). The solver's chunks and
+        slots are set by :meth:`ExplicitSolver.attach <tissuempm.mpm.solver.ExplicitSolver.attach>`."""
+        for name in (*PARTICLE_FIELDS, "state"):
+            if name not in arrays:
+                raise KeyError(f"State.allocate: missing array {name!r}")
+        for name in extra:
+            if name not in OPTIONAL_FIELDS:
+                raise ValueError(f"State.allocate: {name!r} is not an optional particle array: "
+                                 f"choose from {', '.join(OPTIONAL_FIELDS)}")  # fmt: skip
+        n = np.asarray(arrays["x"]).shape[0]
+
+        def w(name: str) -> wp.array:
+            return warp_array(arrays[name], PARTICLE_FIELDS[name][0], t, device)
+
+        def opt(name: str) -> wp.array | None:
+            if name not in extra:
+                return None
+            kind, comps = OPTIONAL_FIELDS[name]
+            if name in arrays:
+                values = arrays[name]
+            elif name in OPTIONAL_DEFAULTS:
+                values = np.array(arrays[OPTIONAL_DEFAULTS[name]])
+            else:
+                values = np.zeros((n, *comps))
+            return warp_array(values, kind, t, device)
+
+        hist = np.asarray(arrays["state"], dtype=float).reshape(n, -1)
+        if n_state is not None and hist.shape[1] != n_state:
+            raise ValueError(f"state has {hist.shape[1]} history columns, the model needs {n_state}")
+        return cls(
+            x=w("x"), x0=w("x0"), v=w("v"), mass=w("mass"), volume0=w("volume0"), size=w("size"), F=w("F"),
+            L=w("L"), stress=w("stress"), material=w("material"), fiber=w("fiber"), fixed=w("fixed"),
+            field=w("field"), work=w("work"), reaction=w("reaction"), vpic=w("vpic"), id=w("id"),
+            history=warp_array(hist, "2d", t, device), history_next=warp_array(hist, "2d", t, device),
+            xref=opt("xref"), Fref=opt("Fref"), acc=opt("acc"), bulk_q=opt("bulk_q"), bulk_work=opt("bulk_work"),
+            peak_mps=opt("peak_mps"), peak_mps_time=opt("peak_mps_time"), peak_von_mises=opt("peak_von_mises"),
+            peak_von_mises_time=opt("peak_von_mises_time"), materials=list(materials),
+        )  # fmt: skip
+
+    def arrays(self) -> dict[str, wp.array]:
+        """The particle arrays this state carries, by name: :data:`PARTICLE_FIELDS`, then the
+        :data:`OPTIONAL_FIELDS` it holds (the history is not among them)."""
+        out = {
+            "x": self.x, "x0": self.x0, "v": self.v, "mass": self.mass, "volume0": self.volume0, "size": self.size,
+            "F": self.F, "L": self.L, "stress": self.stress, "material": self.material, "fiber": self.fiber,
+            "fixed": self.fixed, "field": self.field, "work": self.work, "reaction": self.reaction,
+            "vpic": self.vpic, "id": self.id,
+        }  # fmt: skip
+        optional = {
+            "xref": self.xref, "Fref": self.Fref, "acc": self.acc, "bulk_q": self.bulk_q, "bulk_work": self.bulk_work,
+            "peak_mps": self.peak_mps, "peak_mps_time": self.peak_mps_time, "peak_von_mises": self.peak_von_mises,
+            "peak_von_mises_time": self.peak_von_mises_time,
+        }  # fmt: skip
+        return out | {k: a for k, a in optional.items() if a is not None}
+
+    def _replace_arrays(self, a: Mapping[str, wp.array]) -> None:
+        """Hold the arrays ``a`` (every name of :meth:`arrays`) instead of the present ones."""
+        self.x, self.x0, self.v, self.mass, self.volume0 = a["x"], a["x0"], a["v"], a["mass"], a["volume0"]
+        self.size, self.F, self.L, self.stress, self.material = a["size"], a["F"], a["L"], a["stress"], a["material"]
+        self.fiber, self.fixed, self.field, self.work = a["fiber"], a["fixed"], a["field"], a["work"]
+        self.reaction, self.vpic, self.id = a["reaction"], a["vpic"], a["id"]
+        self.xref, self.Fref, self.acc = a.get("xref"), a.get("Fref"), a.get("acc")
+        self.bulk_q, self.bulk_work = a.get("bulk_q"), a.get("bulk_work")
+        self.peak_mps, self.peak_mps_time = a.get("peak_mps"), a.get("peak_mps_time")
+        self.peak_von_mises, self.peak_von_mises_time = a.get("peak_von_mises"), a.get("peak_von_mises_time")
+
+    def slots(self) -> dict[str, wp.array]:
+        """The per-chunk slot arrays by name (``lo``, ``hi``, ``bad``, ``speed``, ``drop``)."""
+        return {"lo": self.lo, "hi": self.hi, "bad": self.bad, "speed": self.speed, "drop": self.drop}
 
     @property
     def n(self) -> int:
@@ -138,7 +314,12 @@ class State:
     @property
     def fields(self) -> tuple[str, ...]:
         """Names of the particle arrays this state carries (:data:`PARTICLE_FIELDS` and its extras)."""
-        return tuple(PARTICLE_FIELDS) + self.extra
+        return tuple(self.arrays())
+
+    @property
+    def extra(self) -> tuple[str, ...]:
+        """Names of the :data:`OPTIONAL_FIELDS` this state carries."""
+        return tuple(k for k in self.arrays() if k in OPTIONAL_FIELDS)
 
     # ----------------------------------------------------------------------------------------- numpy
     def to_numpy(self, materials: list[Any] | None = None) -> dict[str, Any]:
@@ -152,12 +333,12 @@ class State:
         and scalars ``time``, ``step``, ``dt_ref`` (NaN if not yet set), ``removed_rigid``.
         ``materials`` defaults to the solver's.
         """
-        materials = materials if materials is not None else getattr(self, "materials", [])
+        materials = materials if materials is not None else self.materials
         ids = self.id.numpy()
         inv = np.argsort(ids, kind="stable")
         out: dict[str, Any] = {}
-        for name in self.fields:
-            out[name] = np.array(getattr(self, name).numpy()[inv])
+        for name, a in self.arrays().items():
+            out[name] = np.array(a.numpy()[inv])
         out["material"] = out["material"].astype(np.int32)
         out["fixed"] = out["fixed"].astype(bool)
         out["state"] = np.array(self.history.numpy()[inv])
@@ -179,7 +360,7 @@ class State:
         return out
 
     @classmethod
-    def from_numpy(cls, solver: "ExplicitSolver", data: dict[str, Any]) -> "State":
+    def from_numpy(cls, solver: StateSolver, data: dict[str, Any]) -> "State":
         """Rebuild a state from :meth:`to_numpy` output (exact restart).
 
         ``data`` must hold every key of :data:`RESTART_FIELDS` (``x0``, ``work``, ``reaction``,
@@ -213,7 +394,9 @@ class State:
         pos_of_id[arrays["id"].astype(np.int64)] = np.arange(n)
         perm = pos_of_id[order]
         arrays = {k: v[perm] for k, v in arrays.items()}
-        state = solver._allocate_state(arrays)
+        state = cls.allocate(arrays, solver.t, solver.device, extra=solver.extra_fields, n_state=solver.model.n_state,
+                             materials=solver.model.materials)  # fmt: skip
+        solver.attach(state)
         state.time = float(data.get("time", 0.0))
         state.step = int(data.get("step", 0))
         dt_ref = float(data.get("dt_ref", float("nan")))
@@ -244,8 +427,8 @@ class State:
         m = len(perm)
         p: wp.array = wp.array(np.asarray(perm, dtype=np.int64), dtype=wp.int64, device=dev)
         scratch: dict[Any, wp.array] = {}
-        for name in self.fields:
-            a = getattr(self, name)
+        gathered: dict[str, wp.array] = {}
+        for name, a in self.arrays().items():
             tmp = scratch.get(a.dtype) if in_place else None
             if tmp is None:  # in place: one scratch array per dtype, shared by the fields of that type
                 tmp = scratch[a.dtype] = wp.empty(m, dtype=a.dtype, device=dev)
@@ -253,7 +436,9 @@ class State:
             if in_place:
                 wp.copy(a, tmp)
             else:
-                setattr(self, name, tmp)
+                gathered[name] = tmp
+        if not in_place:
+            self._replace_arrays(gathered)
         cols = self.history.shape[1]
         tmp = wp.empty((m, cols), dtype=self.history.dtype, device=dev)
         if cols > 0:

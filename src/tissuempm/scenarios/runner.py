@@ -197,6 +197,9 @@ class Runner:
         returns the copy. The time spent here (copy, waiting for room in the queue) is output time."""
         t0 = wallclock.perf_counter()
         data = state.to_numpy()
+        bodies = getattr(self.solver, "free", None)
+        if bodies is not None:  # rotating free bodies: angular velocity and torque (mpm.free_bodies)
+            data.update(bodies.snapshot())
         when = f"t = {state.time:.6g} s (step {state.step})"
         if frame:
             self.frame_at = state.time
@@ -320,9 +323,10 @@ class Runner:
         self.series = VTUSeries(self.out, SERIES, compression=run.frame_compression, precision=run.frame_precision)
         rigid = {i: n for i, n in enumerate(self.problem.material_names) if self.problem.model.is_rigid(i)}
         free = tuple(i for i in rigid if self.problem.model.is_free(i))
+        rotating = tuple(i for i in free if self.problem.model.materials[i].rotates)
         removed = tuple(f"{r}_{c}" for r in REMOVAL_REASONS for c in REMOVAL_COLUMNS)
         self.history = HistoryLog(self.out / HISTORY, rigid, free, removed, tuple(self.head_columns),
-                                  axisymmetric=self.problem.model.axisymmetric)
+                                  axisymmetric=self.problem.model.axisymmetric, rotating=rotating)
         self.clock0, self.wall_before = wallclock.perf_counter(), 0.0
         self.output_s, self.frame_at, self.history_at = 0.0, -math.inf, -1
         self.writer: BackgroundWriter = BackgroundWriter(depth=2)
@@ -437,6 +441,9 @@ class Runner:
             "instability": instability,
             "version": __version__,
         }
+        bodies = getattr(self.solver, "free", None)
+        if bodies is not None:  # mass (and inertia) in use against the seeded particles' (mpm.free_bodies)
+            out["free_bodies"] = {names[i]: p for i, p in bodies.properties().items()}
         if final is not None:
             diag = self.solver.diagnostics(state)
             diag["reaction"] = {names[i]: f for i, f in diag.get("reaction", {}).items()}

@@ -63,6 +63,29 @@ class ScenarioError(ValueError):
 Point = tuple[Length, Length, Length]
 Direction = tuple[Number, Number, Number]
 Velocity = tuple[Speed, Speed, Speed]
+
+
+def _inertia(value: Any) -> Any:
+    """Three principal values or a 3 x 3 matrix of inertias (numbers in kg m^2 or strings with a unit,
+    ``"2 g*cm^2"``) as SI floats; the tensor's own checks follow in :class:`RigidSpec`."""
+    def one(v: Any) -> float:
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            return float(v)
+        if isinstance(v, str):
+            return parse_quantity(v, "kg*m^2")
+        raise ValueError(f"{v!r} is not an inertia (a number in kg m^2 or a string with a unit, e.g. '2 g*cm^2')")
+
+    shape = "three principal values [I1, I2, I3] or a 3 x 3 matrix [[Ixx, Ixy, Ixz], [...], [...]] (kg m^2)"
+    if not (isinstance(value, (list, tuple)) and len(value) == 3):
+        raise ValueError(f"{value!r}: must be {shape}")
+    if all(isinstance(r, (list, tuple)) for r in value):
+        if not all(len(r) == 3 for r in value):
+            raise ValueError(f"{value!r}: must be {shape}")
+        return tuple(tuple(one(v) for v in r) for r in value)
+    return tuple(one(v) for v in value)
+
+
+InertiaValue = Annotated[Any, BeforeValidator(_inertia)]
 Positive = Annotated[float, Field(gt=0.0)]
 
 
@@ -201,9 +224,9 @@ class SolverSection(options.section(SolverConfig, Section, "SolverOptions", incl
 
     @model_validator(mode="after")
     def _integrator(self) -> "SolverSection":
-        if self.integrator == "implicit" and (self.anti_locking == "fbar" or self.bulk_viscosity is not None):
-            raise ValueError("anti_locking = 'fbar' and [solver.bulk_viscosity] are available with "
-                             "integrator = 'explicit' only")
+        if self.integrator == "implicit" and self.anti_locking == "fbar":
+            raise ValueError("anti_locking = 'fbar' is available with integrator = 'explicit' only (valid with "
+                             "'implicit': 'none'; tissuempm.mpm.implicit.IMPLICIT_CAPABILITIES says why)")
         if self.integrator == "implicit" and self.implicit is None:
             raise ValueError("integrator = 'implicit' needs a [solver.implicit] table with at least dt (the time step)")
         if self.integrator == "explicit" and self.implicit is not None:
@@ -917,7 +940,9 @@ class RotationSpec(Section):
 class RigidSpec(Section):
     """``kind = "rigid"``: a driver moving at a prescribed velocity, perfectly bonded to the tissue
     (or, with ``[[contact]]``, sliding on it), or with ``free = true`` a rigid projectile whose
-    velocity (initially ``velocity``) follows the forces on it (translation only).
+    velocity (initially ``velocity``) follows the forces on it (translation only, unless
+    ``rotates = true``: then it also turns by the torque on it, from ``angular_velocity``, with the
+    seeded particles' inertia or ``inertia``).
 
     ``amplitude`` scales a driver's ``velocity`` in time (:meth:`build` gives the nominal velocity);
     ``rotation`` (:class:`RotationSpec`) turns a driver about a centre with a rotational pulse.
@@ -930,12 +955,28 @@ class RigidSpec(Section):
     amplitude: AmplitudeRef | None = None
     free: bool = False
     rotation: RotationSpec | None = None
+    rotates: bool = False
+    """A free body that also turns by the torque on it (:mod:`tissuempm.mpm.free_bodies`)."""
+    inertia: InertiaValue | None = None
+    """Inertia tensor [kg m^2] of a rotating free body about its centre of mass (axes x, y, z at
+    t = 0): three principal values or a symmetric positive definite 3 x 3 matrix (default: the seeded
+    particles')."""
+    angular_velocity: tuple[AngularSpeed, AngularSpeed, AngularSpeed] = (0.0, 0.0, 0.0)
+    """Angular velocity [rad/s] of a rotating free body at t = 0."""
+
+    @field_validator("inertia")
+    @classmethod
+    def _inertia_tensor(cls, value: Any) -> Any:
+        """Symmetric positive definite, with the principal values of a mass distribution (the error names the key)."""
+        from tissuempm.mpm.model import inertia_tensor
+
+        return None if value is None else inertia_tensor(value, "inertia")
 
     @model_validator(mode="after")
     def _free_body(self) -> "RigidSpec":
         if self.free and self.rotation is not None:
-            raise ValueError("rotation: a free rigid body (free = true) does not rotate (translation only); "
-                             "a rotational pulse needs a driver (free = false)")  # fmt: skip
+            raise ValueError("rotation: a free rigid body (free = true) turns by the torque on it (rotates = true), "
+                             "not by a prescribed pulse; a rotational pulse needs a driver (free = false)")  # fmt: skip
         if self.mass is not None and not self.free:
             raise ValueError(f"mass = {self.mass:g} kg applies to a free rigid body (free = true): "
                              "a driver's motion is prescribed; give its density instead")  # fmt: skip
@@ -953,7 +994,10 @@ class RigidSpec(Section):
         seeded volume by :func:`tissuempm.scenarios.build.build`)."""
         from tissuempm.mpm import RigidMaterial
 
-        return RigidMaterial(velocity=self.velocity, density=self.density, free=self.free)
+        extra: dict[str, Any] = {}
+        if self.rotates or self.inertia is not None or any(self.angular_velocity):
+            extra = {"rotates": self.rotates, "inertia": self.inertia, "angular_velocity": self.angular_velocity}
+        return RigidMaterial(velocity=self.velocity, density=self.density, free=self.free, **extra)
 
 
 def _rigid_spec(data: dict[str, Any]) -> RigidSpec:
@@ -1019,10 +1063,6 @@ class Scenario(Section):
                                  f"symmetry (slip) face, got kind = {bc.kind!r}")  # fmt: skip
         if self.solver.integrator == "implicit" or self.solver.grid == "no_reset":
             raise ValueError("grid.axisymmetric needs solver.integrator = 'explicit' and solver.grid = 'reset'")
-        if self.solver.anti_locking == "fbar":
-            from tissuempm.mpm.axisymmetric import FBAR_AXISYMMETRIC
-
-            raise ValueError(f"solver.{FBAR_AXISYMMETRIC}")
         given = {(bc.axis, bc.side) for bc in self.boundaries}
         extra = [BoundarySection(axis=a, side=side, kind="slip") for a, side in required if (a, side) not in given]
         object.__setattr__(self, "boundaries", [*self.boundaries, *extra])
@@ -1115,18 +1155,16 @@ class Scenario(Section):
             for name in self.head.brain or []:
                 if name not in materials:
                     raise ValueError(f"head.brain: {name!r} is not a material: choose from {materials}")
-        if self.run.track and self.solver.integrator == "implicit":
-            raise ValueError(f"run.track = {self.run.track} needs solver.integrator = 'explicit'")
         return self
 
     def tracked(self) -> tuple[str, ...]:
         """The peaks the solver tracks: ``run.track``, or by default both with ``[[probe]]`` or
-        ``[head]`` (explicit integrator) and none otherwise."""
+        ``[head]`` and none otherwise (either integrator)."""
         from tissuempm.mpm.tracking import TRACKED
 
         if self.run.track is not None:
             return tuple(self.run.track)
-        wanted = bool(self.probes or self.head) and self.solver.integrator == "explicit"
+        wanted = bool(self.probes or self.head)
         return tuple(TRACKED) if wanted else ()
 
     def _body_masses(self) -> None:
