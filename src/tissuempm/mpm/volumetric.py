@@ -22,27 +22,29 @@ given every particle its velocity gradient L_p and its trial deformation F_p = (
 
    (V_p^0 the particle's reference volume, per radian of revolution in an axisymmetric model,
    where it carries r_0: :mod:`tissuempm.mpm.axisymmetric`);
-2. the particle keeps its isochoric deformation and takes the cell's volume ratio::
+2. the particle keeps its isochoric deformation and takes the cell's volume ratio (axisymmetric
+   models) or the cell's volume change of the step (3-D models, the incremental form)::
 
-       F_p <- (Jbar / J_p)^(1/3) F_p,     L_p <- L_p + ln(dJbar / dJ_p) / (3 dt) I
+       F_p <- (Jbar / J_p)^(1/3) F_p   or   F_p <- (dJbar / dJ_p)^(1/3) F_p,
+       L_p <- L_p + ln(dJbar / dJ_p) / (3 dt) I
 
    (the velocity gradient gets the cell's volumetric rate of this step, so rate-form laws, the
    bulk viscosity and the internal work see the cell's volume change).
 
 The law then evaluates its stress from the modified F (every law, with its history: the
 modification is upstream of the constitutive call, so failure, viscoelasticity and plasticity
-need nothing of their own). A homogeneous deformation is unchanged (every J_p equals the
+need nothing of their own). A homogeneous deformation is unchanged (every J_p and dJ_p equals the
 average), and each cell's material volume sum V^0 J is exactly that of the standard update, so
 mass and volume stay consistent. Rigid particles (no stress) and particles whose trial J is not
 positive (a completely failed particle may invert) take no part.
 
-**Status 2026-12-02 (end of session):** the 3-D solver still uses the incremental average; switched to the
-total one, 5 verification tests failed (colliding disks' energy, cpgimp manufactured-solution order, the
-column's tip, the head's half-sine pressure gradient, the rotating shell's pressure slope), so the switch is
-left to do; axisymmetric models use the total average.
+**3-D models still use the incremental form**: switched to the total one, five verification tests
+failed (the colliding disks' energy, the cpgimp manufactured solution's order, the settling column's
+tip, the head's half-sine pressure gradient, the rotating shell's pressure slope); that switch is left
+to do.
 
 **Why the volume ratio and not its increment.** Averaging only the step's change dJ (the
-incremental, updated-Lagrangian form used here before 2026-12-02) gives all particles of a cell
+incremental, updated-Lagrangian form, still that of 3-D models) gives all particles of a cell
 the same *change*: a particle that arrives from another cell keeps, for good, the difference
 between its volume ratio and its new neighbours'. Its pressure K ln J then differs from theirs
 by a frozen amount that no motion relaxes, and the nodal forces it leaves are balanced by shear
@@ -86,8 +88,8 @@ def fbar_kernels(t: WarpTypes, n_fields: int, total: bool = True) -> Any:
     (V0 J, V0 J^n, V0) give Jbar and dJbar)."""
     s, vec3, mat33 = t.scalar, t.vec3, t.mat33
     NF = n_fields
-    share_t = wp.types.vector(3, s)
     TOT = bool(total)  # False: the incremental average (3-D models, see the module docstring)
+    share_t = wp.types.vector(3 if TOT else 2, s)  # V0 is read by the total average only
 
     @kernel
     def measure(
@@ -125,7 +127,10 @@ def fbar_kernels(t: WarpTypes, n_fields: int, total: bool = True) -> Any:
                 f = int(field[p])
             k = ((i * dims[1] + j) * dims[2] + m) * NF + f
             VJ = vol0[p] * J
-            share[p] = share_t(VJ, VJ / d, vol0[p])
+            if wp.static(TOT):
+                share[p] = share_t(VJ, VJ / d, vol0[p])
+            else:
+                share[p] = share_t(VJ, VJ / d)
         key[p] = wp.int32(k)
         dJ[p] = d
 
@@ -188,10 +193,11 @@ class CellAverage:
     def __init__(self, solver: Any):
         self.solver = solver
         t = solver.t
-        self.entry = wp.types.vector(3, t.scalar)  # the table's entries (V0 J, V0 J^n, V0)
-        # 3-D keeps the incremental average until the 3-D verification tests are re-checked with the total one
-        self.measure, self.accumulate, self.apply = fbar_kernels(t, solver.n_fields,
-                                                                 bool(getattr(solver, "axisymmetric", False)))
+        # the total average in the meridian plane; 3-D keeps the incremental one until its verification tests
+        # are re-checked with the total one (module docstring)
+        total = bool(solver.axisymmetric)
+        self.entry = wp.types.vector(3 if total else 2, t.scalar)  # (V0 J, V0 J^n[, V0])
+        self.measure, self.accumulate, self.apply = fbar_kernels(t, solver.n_fields, total)
         dims = solver.model.grid.shape
         self.n_entries = dims[0] * dims[1] * dims[2] * solver.n_fields
         self.table = wp.zeros(self.n_entries, dtype=self.entry, device=solver.device)
