@@ -28,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from tissuempm.mpm.free_bodies import rigid_fit
+
 XYZ = ("x", "y", "z")
 
 
@@ -50,13 +52,8 @@ def rigid_motion(x: np.ndarray, v: np.ndarray, m: np.ndarray) -> tuple[np.ndarra
     docstring). A set whose inertia tensor is singular (fewer than three particles off one line)
     gets the least-squares omega."""
     x, v, m = np.asarray(x, float), np.asarray(v, float), np.asarray(m, float)
-    M = m.sum()
-    xc = (m[:, None] * x).sum(axis=0) / M
-    vc = (m[:, None] * v).sum(axis=0) / M
-    r = x - xc
-    H = (m[:, None] * np.cross(r, v - vc)).sum(axis=0)
-    inertia = np.eye(3) * np.sum(m * np.sum(r * r, axis=1)) - np.einsum("n,ni,nj->ij", m, r, r)
-    omega = np.linalg.lstsq(inertia, H, rcond=None)[0]
+    xc = (m[:, None] * x).sum(axis=0) / m.sum()
+    vc, omega = rigid_fit(m, x, v, xc)  # the free bodies' fit of the rigid field about xc
     return xc, vc, omega
 
 
