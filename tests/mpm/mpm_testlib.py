@@ -10,7 +10,8 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-from tissuempm.materials.base import PRM_OFFSET, Material, copy_state, parameter
+from tissuempm.materials.base import Material, copy_state, parameter
+from tissuempm.materials.warp_interface import stress_func
 from tissuempm.mpm import ParticleData
 from tissuempm.precision import WarpTypes
 
@@ -29,13 +30,12 @@ class Uniaxial1D(Material):
     def _build_stress(cls, t: WarpTypes) -> Any:
         s = t.scalar
         copy = copy_state(t)
-        o = PRM_OFFSET
+        P = cls.packed(t)
 
-        @wp.func
-        def stress(F: t.mat33, L: t.mat33, a0: t.vec3, prm: wp.array(dtype=s), s_in: wp.array2d(dtype=s),
-                   s_out: wp.array2d(dtype=s), p: int, dt: s):  # fmt: skip
+        @stress_func(t)
+        def stress(F, L, a0, prm, s_in, s_out, p, dt):
             copy(s_in, s_out, p, 0, s_in.shape[1])
-            E = prm[o]
+            E = P.E(prm)
             return t.mat33(E * (F[0, 0] - s(1.0)), s(0.0), s(0.0), s(0.0), E * (F[1, 1] - s(1.0)), s(0.0),
                            s(0.0), s(0.0), E * (F[2, 2] - s(1.0)))  # fmt: skip
 
@@ -62,15 +62,14 @@ class CompressibleNeoHookean(Material):
     def _build_stress(cls, t: WarpTypes) -> Any:
         s = t.scalar
         copy = copy_state(t)
-        o = PRM_OFFSET
+        P = cls.packed(t)
 
-        @wp.func
-        def stress(F: t.mat33, L: t.mat33, a0: t.vec3, prm: wp.array(dtype=s), s_in: wp.array2d(dtype=s),
-                   s_out: wp.array2d(dtype=s), p: int, dt: s):  # fmt: skip
+        @stress_func(t)
+        def stress(F, L, a0, prm, s_in, s_out, p, dt):
             copy(s_in, s_out, p, 0, s_in.shape[1])
             J = wp.determinant(F)
             I = wp.identity(n=3, dtype=s)
-            return (prm[o + 1] / J) * (F * wp.transpose(F) - I) + (prm[o] * wp.log(J) / J) * I
+            return (P.mu(prm) / J) * (F * wp.transpose(F) - I) + (P.lam(prm) * wp.log(J) / J) * I
 
         return stress
 

@@ -87,18 +87,18 @@ def _nodal_contact(nf: int, rigid_field: int | None, seed: int = 0, separation: 
     v4 = np.zeros((n_nodes, nf, 4))
     v4[..., :3] = v
     laws = {(a, b): ContactLaw("friction", 0.3, separation) for a in range(nf) for b in range(a + 1, nf)}
-    kind, mu, gap = Contact(nf, laws).tables()
+    C = Contact(nf, laws).kernel_args(t, "cpu")
     arr = lambda a: wp.array(a.reshape(-1, 4), dtype=t.vec4, device="cpu")  # noqa: E731
     vel, inc, react = arr(v4), arr(np.zeros_like(v4)), arr(np.zeros_like(v4))
     dt = 1e-3
-    wp.launch(
-        contact_kernel(t, K.UPDATE, nf),
-        dim=n_nodes,
-        inputs=[0, arr(g_mm), arr(g_c), arr(g_x), vel, inc, react, wp.array(kind, dtype=wp.int32),
-                wp.array(mu, dtype=wp.float64), wp.array(gap, dtype=wp.int32), 1e-12, 1.0 / dt, 1.0 / h, 0,
-                n_nodes * nf, wp.vec3i(*dims), 0, wp.zeros(6, dtype=wp.int32), wp.zeros(6, dtype=t.vec3)],
-        device="cpu",
-    )  # fmt: skip
+    A = K.kernel_structs(t)
+    grid, step = A.Grid(), A.Step()  # the members the contact kernel reads; no grid-face conditions
+    grid.g_mm, grid.g_c, grid.g_x = arr(g_mm), arr(g_c), arr(g_x)
+    grid.g_vnew, grid.g_vinc, grid.g_react = vel, inc, react
+    grid.inv_h, grid.dims, grid.n_bc = 1.0 / h, wp.vec3i(*dims), 0
+    grid.bc_kind, grid.bc_vel = wp.zeros(6, dtype=wp.int32), wp.zeros(6, dtype=t.vec3)
+    step.min_mass, C.inv_dt = 1e-12, 1.0 / dt
+    wp.launch(contact_kernel(t, K.UPDATE, nf), dim=n_nodes, inputs=[0, grid, step, C, 0, n_nodes * nf], device="cpu")
     after = vel.numpy().reshape(n_nodes, nf, 4)[..., :3]
     d_inc = inc.numpy().reshape(n_nodes, nf, 4)[..., :3]
     impulse = dt * react.numpy().reshape(n_nodes, nf, 4)[..., :3]

@@ -6,11 +6,11 @@ from typing import Any, ClassVar
 
 import numpy as np
 import pytest
-import warp as wp
 from mpm_testlib import block
 
 from tissuempm.materials import NeoHookean
-from tissuempm.materials.base import PRM_OFFSET, Material, StateVar, copy_state, parameter
+from tissuempm.materials.base import Material, StateVar, copy_state, parameter
+from tissuempm.materials.warp_interface import stress_func
 from tissuempm.mpm import ExplicitSolver, Grid, InstabilityError, Model, ParticleData, SolverConfig, State
 from tissuempm.precision import WarpTypes
 
@@ -35,16 +35,15 @@ class BrittleBar(Material):
     @classmethod
     def _build_stress(cls, t: WarpTypes) -> Any:
         s = t.scalar
-        o = PRM_OFFSET
+        P = cls.packed(t)
         copy = copy_state(t)
 
-        @wp.func
-        def stress(F: t.mat33, L: t.mat33, a0: t.vec3, prm: wp.array(dtype=s), s_in: wp.array2d(dtype=s),
-                   s_out: wp.array2d(dtype=s), p: int, dt: s):  # fmt: skip
+        @stress_func(t)
+        def stress(F, L, a0, prm, s_in, s_out, p, dt):
             copy(s_in, s_out, p, 0, s_in.shape[1])
-            if F[0, 0] > prm[o + 1]:
+            if F[0, 0] > P.stretch(prm):
                 s_out[p, 0] = s(1.0)
-            E = prm[o]
+            E = P.E(prm)
             return t.mat33(E * (F[0, 0] - s(1.0)), s(0.0), s(0.0), s(0.0), E * (F[1, 1] - s(1.0)), s(0.0),
                            s(0.0), s(0.0), E * (F[2, 2] - s(1.0)))  # fmt: skip
 

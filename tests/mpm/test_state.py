@@ -9,7 +9,7 @@ import warp as wp
 
 from tissuempm.materials import NeoHookean
 from tissuempm.mpm import ExplicitSolver, Grid, Model, SolverConfig, State
-from tissuempm.mpm.state import OPTIONAL_DEFAULTS, OPTIONAL_FIELDS, PARTICLE_FIELDS
+from tissuempm.mpm.state import OPTIONAL_DEFAULTS, OPTIONAL_FIELDS, PARTICLE_FIELDS, particle_array
 from tissuempm.precision import warp_types
 
 T = warp_types("float64")
@@ -26,14 +26,21 @@ def numpy_arrays(n: int, n_state: int = 2) -> dict[str, np.ndarray]:
     return out
 
 
-def test_every_table_entry_is_a_declared_array_attribute():
-    """The tables that to_numpy, restarts and sorting iterate and the dataclass agree: a table name State does
-    not declare (or a declared array no table lists) fails; required arrays have no default, optional ones None."""
+def test_every_array_field_is_a_declared_particle_array():
+    """The tables that to_numpy, restarts, sorting and removal iterate are read from the fields' metadata
+    (state.particle_array), so an array field declared without it would be left behind by all of them: every
+    Warp-array field but the history and the solver's slots carries it, required arrays have no default and
+    optional ones None, an optional array that starts as a copy has its source's kind, and an unknown kind
+    is refused."""
     declared = {f.name: f for f in dataclasses.fields(State)}
     arrays = {n for n, f in declared.items() if f.type in (wp.array, wp.array | None)} - SLOTS
     assert arrays == set(PARTICLE_FIELDS) | set(OPTIONAL_FIELDS)
+    assert not set(PARTICLE_FIELDS) & set(OPTIONAL_FIELDS)
     assert all(declared[n].default is dataclasses.MISSING and declared[n].init for n in PARTICLE_FIELDS)
     assert all(declared[n].default is None and declared[n].type == wp.array | None for n in OPTIONAL_FIELDS)
+    assert all(OPTIONAL_FIELDS[n] == PARTICLE_FIELDS[start] for n, start in OPTIONAL_DEFAULTS.items())  # a copy
+    with pytest.raises(ValueError, match="particle array kind 'vec4'"):
+        particle_array("vec4")
 
 
 @pytest.mark.parametrize("extra", [(), tuple(OPTIONAL_FIELDS)], ids=["required", "all_optional"])

@@ -4,6 +4,7 @@ Every law is a frozen dataclass registered by its ``kind`` in :data:`MATERIALS`;
 see :mod:`tissuempm.materials.base` for the interface the solver uses.
 """
 
+from tissuempm.materials.arruda_boyce import ArrudaBoyce
 from tissuempm.materials.base import (
     MATERIALS,
     Material,
@@ -30,6 +31,7 @@ from tissuempm.materials.yeoh import Yeoh
 
 __all__ = [
     "MATERIALS",
+    "ArrudaBoyce",
     "ElasticPlastic",
     "Failure",
     "FailureMode",

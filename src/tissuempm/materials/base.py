@@ -10,8 +10,8 @@ Solver-facing interface (all a solver needs to know about a law)
 -----------------------------------------------------------------
 ``pack()``
     1-D float array: header ``[rho0, K_wave, G_wave]`` followed by the law's own
-    parameters (:data:`HEADER` entries; the law's data start at
-    :data:`PRM_OFFSET`). The layout is generated from the declaration
+    parameters (:data:`HEADER` entries; the law's data start at index
+    ``len(HEADER)``). The layout is generated from the declaration
     (:func:`packed_slots`): parameters, switches (:func:`option`, packed as codes),
     derived values (:func:`derived`) and an inner law, in declaration order; a law's
     Warp code reads them with the generated accessors ``P = cls.packed(t)``
@@ -80,11 +80,9 @@ from tissuempm.precision import WarpTypes, warp_types
 
 HEADER: tuple[str, ...] = ("density", "K_wave", "G_wave")
 """Names of the leading entries of every packed parameter vector (Warp: ``P.density(prm)``, ...)."""
-PRM_DENSITY = HEADER.index("density")
-PRM_K_WAVE = HEADER.index("K_wave")
-PRM_G_WAVE = HEADER.index("G_wave")
-PRM_OFFSET = len(HEADER)
-"""Index of the first law-specific entry of a packed parameter vector."""
+_PRM_OFFSET = len(HEADER)
+"""Index of the first law-specific entry of a packed parameter vector (private: laws read their entries with
+the generated accessors, :meth:`Material.packed`)."""
 
 MATERIALS: dict[str, type["Material"]] = {}
 """Registry of material laws by :attr:`Material.kind`."""
@@ -375,7 +373,7 @@ class Material:
             if sl.kind == "law":
                 inner = v
                 out.extend(v.law_parameters())
-                start = PRM_OFFSET + len(out)
+                start = _PRM_OFFSET + len(out)
             elif sl.kind == "sequence":
                 out.append(float(len(v)))
                 out.extend(float(x) for x in v)
@@ -670,7 +668,7 @@ def accessors(cls: type, t: WarpTypes) -> SimpleNamespace:
     length; from there it is a Warp function of ``prm`` (the inner law's block is followed by the own
     block, whose start the packed vector holds :func:`trailer_length` entries from its end)."""
     out = dict(vars(header(t)))
-    index: Any = PRM_OFFSET
+    index: Any = _PRM_OFFSET
     for sl in packed_slots(cls):
         if sl.kind == "law":
             n = _inner_length(cls)

@@ -39,6 +39,7 @@ import warp as wp
 
 from tissuempm.materials.base import Fit, parameter
 from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
+from tissuempm.materials.warp_interface import invariant_func
 from tissuempm.precision import WarpTypes
 
 LOCK_FLOOR = 1.0e-6
@@ -78,8 +79,8 @@ class Gent(InvariantHyperelastic):
         s = t.scalar
         P = cls.packed(t)
 
-        @wp.func
-        def dW(I1: s, I2: s, prm: wp.array(dtype=s)):
+        @invariant_func(t)
+        def dW(I1, I2, prm):
             r = wp.max(s(1.0) - (I1 - s(3.0)) / P.Jm(prm), s(LOCK_FLOOR))
             return s(0.5) * P.G(prm) / r, s(0.0)
 
@@ -91,8 +92,8 @@ class Gent(InvariantHyperelastic):
         s = t.scalar
         P = cls.packed(t)
 
-        @wp.func
-        def d2W(I1: s, I2: s, prm: wp.array(dtype=s)):
+        @invariant_func(t)
+        def d2W(I1, I2, prm):
             r = wp.max(s(1.0) - (I1 - s(3.0)) / P.Jm(prm), s(LOCK_FLOOR))
             return s(0.5) * P.G(prm) / (P.Jm(prm) * r * r), s(0.0), s(0.0)
 

@@ -130,12 +130,15 @@ class InvariantHyperelastic(UncoupledHyperelastic):
 
     @classmethod
     def _build_derivatives(cls, t: WarpTypes) -> Any:
-        """``@wp.func dW(I1b, I2b, prm) -> (W1, W2)``, reading the law's parameters with ``cls.packed(t)``."""
+        """``dW(I1b, I2b, prm) -> (W1, W2)``, a ``@wp.func`` written untyped with
+        ``@invariant_func(t) def dW(I1, I2, prm):`` (:func:`~tissuempm.materials.warp_interface.invariant_func`),
+        reading the law's parameters with ``cls.packed(t)``."""
         raise NotImplementedError
 
     @classmethod
     def _build_second_derivatives(cls, t: WarpTypes) -> Any:
-        """``@wp.func d2W(I1b, I2b, prm) -> (W11, W12, W22)`` (second derivatives, for the tangent)."""
+        """``d2W(I1b, I2b, prm) -> (W11, W12, W22)`` (second derivatives, for the tangent; ``@invariant_func(t)``
+        as ``dW``)."""
         raise NotImplementedError
 
     def shear_modulus(self) -> float:

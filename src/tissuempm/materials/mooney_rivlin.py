@@ -21,11 +21,11 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import warp as wp
 
 from tissuempm.materials.base import Fit, ParameterError, parameter
 from tissuempm.materials.cards import abaqus_D1, data_lines
 from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
+from tissuempm.materials.warp_interface import invariant_func
 from tissuempm.precision import WarpTypes
 
 
@@ -73,11 +73,10 @@ class MooneyRivlin(InvariantHyperelastic):
 
     @classmethod
     def _build_derivatives(cls, t: WarpTypes) -> Any:
-        s = t.scalar
         P = cls.packed(t)
 
-        @wp.func
-        def dW(I1: s, I2: s, prm: wp.array(dtype=s)):
+        @invariant_func(t)
+        def dW(I1, I2, prm):
             return P.C10(prm), P.C01(prm)
 
         return dW
@@ -87,8 +86,8 @@ class MooneyRivlin(InvariantHyperelastic):
         """W is linear in the invariants: W11 = W12 = W22 = 0."""
         s = t.scalar
 
-        @wp.func
-        def d2W(I1: s, I2: s, prm: wp.array(dtype=s)):
+        @invariant_func(t)
+        def d2W(I1, I2, prm):
             return s(0.0), s(0.0), s(0.0)
 
         return d2W

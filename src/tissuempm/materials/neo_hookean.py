@@ -19,11 +19,11 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import warp as wp
 
 from tissuempm.materials.base import Fit, parameter
 from tissuempm.materials.cards import abaqus_D1, data_lines
 from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
+from tissuempm.materials.warp_interface import invariant_func
 from tissuempm.precision import WarpTypes
 
 
@@ -55,8 +55,8 @@ class NeoHookean(InvariantHyperelastic):
         s = t.scalar
         P = cls.packed(t)
 
-        @wp.func
-        def dW(I1: s, I2: s, prm: wp.array(dtype=s)):
+        @invariant_func(t)
+        def dW(I1, I2, prm):
             return P.C10(prm), s(0.0)
 
         return dW
@@ -66,8 +66,8 @@ class NeoHookean(InvariantHyperelastic):
         """W is linear in the invariants: W11 = W12 = W22 = 0."""
         s = t.scalar
 
-        @wp.func
-        def d2W(I1: s, I2: s, prm: wp.array(dtype=s)):
+        @invariant_func(t)
+        def d2W(I1, I2, prm):
             return s(0.0), s(0.0), s(0.0)
 
         return d2W

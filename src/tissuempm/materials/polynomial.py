@@ -31,11 +31,11 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import warp as wp
 
 from tissuempm.materials.base import Fit, ParameterError, parameter
 from tissuempm.materials.cards import abaqus_D1, data_lines
 from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
+from tissuempm.materials.warp_interface import invariant_func
 from tissuempm.precision import WarpTypes
 
 MAX_REDUCED_ORDER = 6
@@ -82,19 +82,20 @@ class ReducedPolynomial(InvariantHyperelastic):
 
     def iso_energy(self, I1: np.ndarray, I2: np.ndarray) -> np.ndarray:
         x = np.asarray(I1, dtype=float) - 3.0
-        return sum(c * x ** (i + 1) for i, c in enumerate(self.C))
+        return sum((c * x ** (i + 1) for i, c in enumerate(self.C)), np.zeros_like(x))
 
     def iso_derivatives(self, I1: np.ndarray, I2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         x = np.asarray(I1, dtype=float) - 3.0
-        return sum((i + 1) * c * x**i for i, c in enumerate(self.C)), 0.0 * np.asarray(I2, dtype=float)
+        W1 = sum(((i + 1) * c * x**i for i, c in enumerate(self.C)), np.zeros_like(x))
+        return W1, 0.0 * np.asarray(I2, dtype=float)
 
     @classmethod
     def _build_derivatives(cls, t: WarpTypes) -> Any:
         s = t.scalar
         P = cls.packed(t)
 
-        @wp.func
-        def dW(I1: s, I2: s, prm: wp.array(dtype=s)):
+        @invariant_func(t)
+        def dW(I1, I2, prm):
             n = P.C_count(prm)
             x = I1 - s(3.0)
             W1 = s(0.0)
@@ -114,8 +115,8 @@ class ReducedPolynomial(InvariantHyperelastic):
         s = t.scalar
         P = cls.packed(t)
 
-        @wp.func
-        def d2W(I1: s, I2: s, prm: wp.array(dtype=s)):
+        @invariant_func(t)
+        def d2W(I1, I2, prm):
             n = P.C_count(prm)
             x = I1 - s(3.0)
             W11 = s(0.0)
@@ -190,8 +191,8 @@ class Polynomial(InvariantHyperelastic):
         s = t.scalar
         P = cls.packed(t)
 
-        @wp.func
-        def dW(I1: s, I2: s, prm: wp.array(dtype=s)):
+        @invariant_func(t)
+        def dW(I1, I2, prm):
             x = I1 - s(3.0)
             y = I2 - s(3.0)
             W1 = P.C10(prm) + s(2.0) * P.C20(prm) * x + P.C11(prm) * y
@@ -206,8 +207,8 @@ class Polynomial(InvariantHyperelastic):
         s = t.scalar
         P = cls.packed(t)
 
-        @wp.func
-        def d2W(I1: s, I2: s, prm: wp.array(dtype=s)):
+        @invariant_func(t)
+        def d2W(I1, I2, prm):
             return s(2.0) * P.C20(prm), P.C11(prm), s(2.0) * P.C02(prm)
 
         return d2W

@@ -1,16 +1,20 @@
 """The Warp side of the material interface: the laws' shared function signatures and option codes.
 
-Every law writes its solver functions with one of three argument lists
+Every law writes its solver functions with one of these argument lists
 (:mod:`tissuempm.materials.base`, module docstring)::
 
     stress(F, L, a0, prm, s_in, s_out, p, dt)          # also stress_moduli and tangent
     moduli(F, a0, prm, s_in, p)
     rate(F, L, a0, prm, s_in, s_out, p, dt, D)          # Kirchhoff stress rate (tangent.rate_tangent)
+    dW(I1, I2, prm)                                     # also d2W: an invariant law's derivatives
+                                                        # (tissuempm.materials.invariant_hyperelastic)
 
-The decorators :func:`stress_func`, :func:`moduli_func` and :func:`rate_func` give an
-unannotated Python function those arguments' Warp types for a precision and make it a
-``@wp.func``, so a law writes ``def stress(F, L, a0, prm, s_in, s_out, p, dt):`` once instead of
-the eight typed lines; a misspelt or missing argument raises ``TypeError`` at build time.
+The decorators :func:`stress_func`, :func:`moduli_func`, :func:`rate_func` and
+:func:`invariant_func` give an unannotated Python function those arguments' Warp types for a
+precision and make it a ``@wp.func``, so a law writes ``def stress(F, L, a0, prm, s_in, s_out, p, dt):``
+once instead of the eight typed lines (and mypy, which does not understand Warp's array and
+precision-dependent types as annotations, sees none); a misspelt or missing argument raises
+``TypeError`` at build time.
 
 Options (a law's switches, e.g. ``volumetric = "log"``) are declared as a ``Literal`` of their
 choices; they are packed as the index of the choice and read in Warp code as an ``int``
@@ -42,6 +46,9 @@ MODULI_ARGS: tuple[str, ...] = ("F", "a0", "prm", "s_in", "p")
 """Arguments of a law's moduli function."""
 RATE_ARGS: tuple[str, ...] = (*STRESS_ARGS, "D")
 """Arguments of a Kirchhoff stress rate (:func:`tissuempm.materials.tangent.rate_tangent`)."""
+INVARIANT_ARGS: tuple[str, ...] = ("I1", "I2", "prm")
+"""Arguments of an invariant law's derivative functions ``dW`` and ``d2W``: the isochoric invariants
+I1b, I2b and the packed parameters (:mod:`tissuempm.materials.invariant_hyperelastic`)."""
 
 
 def argument_types(t: WarpTypes) -> dict[str, Any]:
@@ -57,6 +64,8 @@ def argument_types(t: WarpTypes) -> dict[str, Any]:
         "p": int,
         "dt": s,
         "D": t.mat33,
+        "I1": s,
+        "I2": s,
     }
 
 
@@ -85,6 +94,11 @@ def moduli_func(t: WarpTypes) -> Callable[[Callable[..., Any]], Any]:
 def rate_func(t: WarpTypes) -> Callable[[Callable[..., Any]], Any]:
     """Decorator: ``def f(F, L, a0, prm, s_in, s_out, p, dt, D)`` as a ``@wp.func`` typed for ``t``."""
     return _typed(t, RATE_ARGS)
+
+
+def invariant_func(t: WarpTypes) -> Callable[[Callable[..., Any]], Any]:
+    """Decorator: ``def f(I1, I2, prm)`` as a ``@wp.func`` typed for ``t`` (an invariant law's ``dW``, ``d2W``)."""
+    return _typed(t, INVARIANT_ARGS)
 
 
 def option_codes(choices: Any) -> type:

@@ -21,11 +21,11 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import warp as wp
 
 from tissuempm.materials.base import Fit, parameter
 from tissuempm.materials.cards import abaqus_D1, data_lines
 from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
+from tissuempm.materials.warp_interface import invariant_func
 from tissuempm.precision import WarpTypes
 
 
@@ -71,8 +71,8 @@ class Yeoh(InvariantHyperelastic):
         s = t.scalar
         P = cls.packed(t)
 
-        @wp.func
-        def dW(I1: s, I2: s, prm: wp.array(dtype=s)):
+        @invariant_func(t)
+        def dW(I1, I2, prm):
             x = I1 - s(3.0)
             return P.C10(prm) + x * (s(2.0) * P.C20(prm) + s(3.0) * P.C30(prm) * x), s(0.0)
 
@@ -84,8 +84,8 @@ class Yeoh(InvariantHyperelastic):
         s = t.scalar
         P = cls.packed(t)
 
-        @wp.func
-        def d2W(I1: s, I2: s, prm: wp.array(dtype=s)):
+        @invariant_func(t)
+        def d2W(I1, I2, prm):
             return s(2.0) * P.C20(prm) + s(6.0) * P.C30(prm) * (I1 - s(3.0)), s(0.0), s(0.0)
 
         return d2W

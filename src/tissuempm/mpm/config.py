@@ -29,9 +29,11 @@ GridMode = Literal["reset", "no_reset"]
 Outflow = Literal["remove", "stop"]
 """What a particle leaving the grid does: ``"remove"`` (it is taken out of the computation and
 counted, :mod:`tissuempm.mpm.removal`) or ``"stop"`` (:class:`InstabilityError` ``"left grid"``)."""
-AntiLocking = Literal["none", "fbar"]
-"""Volumetric treatments: ``"none"`` (each particle's own F) or ``"fbar"`` (cell-averaged
-volume change, :mod:`tissuempm.mpm.volumetric`)."""
+AntiLocking = Literal["none", "fbar", "fbar_incremental", "fbar_total"]
+"""Volumetric treatments: ``"none"`` (each particle's own F) or F-bar with a cell average
+(:mod:`tissuempm.mpm.volumetric`): ``"fbar_incremental"`` (each step's volume change averaged),
+``"fbar_total"`` (the volume ratio averaged), ``"fbar"`` (the model's form: incremental in 3-D,
+total in the meridian plane of an axisymmetric model)."""
 Precision = Literal[PRECISIONS]  # type: ignore[valid-type]
 SHAPES: tuple[str, ...] = get_args(ShapeFunction)
 TRANSFERS: tuple[str, ...] = get_args(Transfer)
@@ -112,8 +114,14 @@ class SolverConfig:
     reset_interval
         With ``grid="no_reset"``: reset every this many steps (``None``: never).
     anti_locking
-        Volumetric treatment: ``"none"`` (each particle's own F) or ``"fbar"`` (the volume change
-        averaged over each cell and velocity field, Coombs et al. 2018; :mod:`tissuempm.mpm.volumetric`).
+        Volumetric treatment: ``"none"`` (each particle's own F) or F-bar, the volume change averaged
+        over each cell and velocity field (Coombs et al. 2018; :mod:`tissuempm.mpm.volumetric`):
+        ``"fbar_incremental"`` averages each step's volume change (energy-conserving, keeps each
+        particle's own volume history; its fault: differences between the volume ratios of particles
+        that meet in a cell never relax, which drives erosion in penetration of nearly incompressible
+        gels), ``"fbar_total"`` averages the volume ratio itself (relaxes them; dissipates or creates
+        energy as particles cross cells and flattens pressure within a cell), ``"fbar"`` the model's
+        form (incremental in 3-D, total in an axisymmetric model; docs/mpm.md has the measurements).
         ``None`` (default): ``"fbar"`` for the explicit solver, ``"none"`` for the implicit one
         (docs/mpm.md says why).
     bulk_viscosity_linear, bulk_viscosity_quadratic

@@ -89,7 +89,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import warp as wp
 
-from tissuempm.mpm.kernels import BC_SLIP, _helpers, vec4_helpers
+from tissuempm.mpm.kernels import BC_SLIP, _helpers, kernel_structs, vec4_helpers
 from tissuempm.mpm.rigid_pulses import rigid_motion_functions
 from tissuempm.precision import WarpTypes, kernel
 
@@ -133,46 +133,34 @@ def free_body_kernels(t: WarpTypes) -> Any:
 
 @functools.cache
 def torque_kernel(t: WarpTypes, shape: str, NF: int) -> Any:
-    """Force and torque shares of the rotating free bodies' particles (module docstring), summed per
+    """``torque_shares(P, G, turning, begin, slot, out_f, out_t)``: force and torque shares of the rotating
+    free bodies' particles (module docstring; ``turning[m]`` != 0 for those bodies' materials m), summed per
     chunk slot: ``out_f[slot + m] += sum_i w_ip m_p / m^c_i R_i``, ``out_t[slot + m] += sum_i w_ip m_p /
-    m^c_i (x_i - c_m) x R_i`` (R_i the nodal reaction ``react`` of the UPDATE pass and its contact
-    correction, m^c_i the constraint mass ``g_c``, x_i the node, c_m the body's centre in the rigid
-    table). Run before the particles move (their stencil is the one of the step's P2G)."""
-    s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
+    m^c_i (x_i - c_m) x R_i`` (R_i the nodal reaction ``G.g_react`` of the UPDATE pass and its contact
+    correction, m^c_i the constraint mass in ``G.g_c``, x_i the node, c_m the body's centre in the rigid
+    table ``G.rigid_vel``; ``P``, ``G``: the solver's structs, :func:`tissuempm.mpm.kernels.kernel_structs`).
+    Run before the particles move (their stencil, at ``P.xs``, is the one of the step's P2G)."""
+    A = kernel_structs(t)
+    s, vec3 = t.scalar, t.vec3
     h = _helpers(t, shape, NF)
     stencil, field_of, NP = h.stencil, h.field_of, h.NP
     head = vec4_helpers(t).head
     rigid_first_node = rigid_motion_functions(t)[3]
 
     @kernel
-    def torque_shares(
-        x: wp.array(dtype=vec3),
-        mass: wp.array(dtype=s),
-        size: wp.array(dtype=vec3),
-        F: wp.array(dtype=mat33),
-        material: wp.array(dtype=wp.int32),
-        field: wp.array(dtype=wp.int32),
-        turning: wp.array(dtype=wp.int32),
-        react: wp.array(dtype=vec4),
-        g_c: wp.array(dtype=vec4),
-        table: wp.array(dtype=vec3),
-        origin: vec3,
-        inv_h: s,
-        dims: wp.vec3i,
-        begin: int,
-        slot: int,
-        out_f: wp.array(dtype=vec3),
-        out_t: wp.array(dtype=vec3),
-    ):
+    def torque_shares(P: A.Particles, G: A.Grid, turning: wp.array(dtype=wp.int32), begin: int, slot: int,
+                      out_f: wp.array(dtype=vec3), out_t: wp.array(dtype=vec3)):  # fmt: skip
         p = begin + wp.tid()
-        mat = material[p]
+        mat = P.material[p]
         if turning[mat] == 0:
             return
-        nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(x[p], p, size, F, origin, inv_h, dims, field_of(field, p))
-        c = table[2 * (table.shape[0] // 3) + mat]
+        inv_h = G.inv_h
+        nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(P.xs[p], p, P.size, P.F, G.origin, inv_h, G.dims,
+                                                     field_of(P.field, p))  # fmt: skip
+        c = G.rigid_vel[2 * (G.rigid_vel.shape[0] // 3) + mat]
         hn = s(1.0) / inv_h
-        x0 = rigid_first_node(nb, NF, dims, origin, inv_h)
-        m = mass[p]
+        x0 = rigid_first_node(nb, NF, G.dims, G.origin, inv_h)
+        m = P.mass[p]
         fs = vec3()
         ts = vec3()
         xi = x0 - c  # the lever arm x_i - c of the stencil's nodes, stepped by h along each axis
@@ -182,9 +170,9 @@ def torque_kernel(t: WarpTypes, shape: str, NF: int) -> Any:
                 xk = xj
                 for k in range(NP):
                     n = nb + i * sx + j * sy + k * NF
-                    cm = g_c[n][3]
+                    cm = G.g_c[n][3]
                     if cm > s(0.0):
-                        r = (wx[i] * wy[j] * wz[k] * m / cm) * head(react[n])
+                        r = (wx[i] * wy[j] * wz[k] * m / cm) * head(G.g_react[n])
                         fs += r
                         ts += wp.cross(xk, r)
                     xk = xk + vec3(s(0.0), s(0.0), hn)
@@ -451,18 +439,17 @@ class FreeBodies:
                   inputs=[st.x, st.v, st.vpic, st.material, self.flags, s.rigid_vel, self._spin])  # fmt: skip
 
     # ------------------------------------------------------------------------------ step
-    def share(self, st: "State", c: int, b: int, e: int, xs: wp.array) -> None:
+    def share(self, st: "State", c: int, b: int, e: int) -> None:
         """The force and torque shares of chunk ``c``'s particles ``[b, e)`` at their stencil positions
-        ``xs`` (before they move: the solver's gather calls it with the reaction shares); a no-op
+        (before they move: the solver's gather calls it with the reaction shares); a no-op
         without rotating bodies."""
         if not self.turning:
             return
         s = self.solver
         self._in_step = True
         n_mat = len(self.mass)
-        s._launch(self.torque_kernel, e - b,
-                  [xs, st.mass, st.size, st.F, st.material, st.field, self._tflags, s.g_react, s.g_c, s.rigid_vel,
-                   s.origin, s.t.scalar(1.0 / s.h), s.dims, b, c * n_mat, self._f, self._t], ("torque", c))  # fmt: skip
+        args = [st.kernel_args, s.grid_args, self._tflags, b, c * n_mat, self._f, self._t]
+        s._launch(self.torque_kernel, e - b, args, ("torque", c))
 
     def advance(self, st: "State", dt: float) -> None:
         """V += dt (R / M + g) for each free body, from the step's reaction shares; rotating bodies

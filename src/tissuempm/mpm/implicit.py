@@ -80,7 +80,7 @@ from pydantic import Field
 from tissuempm.materials.kinematics import mat66
 from tissuempm.mpm.config import Control, SolverConfig
 from tissuempm.mpm.errors import InstabilityError
-from tissuempm.mpm.implicit_kernels import implicit_kernels
+from tissuempm.mpm.implicit_kernels import implicit_kernels, implicit_structs
 from tissuempm.mpm.kernels import SLOT
 from tissuempm.mpm.model import Model, ParticleData
 from tissuempm.mpm.solver import ExplicitSolver
@@ -284,7 +284,6 @@ class ImplicitSolver:
         ph.extra_fields = ("acc",) + (("bulk_q", "bulk_work") if config.bulk_viscosity else ()) + (
             ph.tracker.fields if ph.tracker is not None else ())
         self.ik = implicit_kernels(self.t, config.shape, config.bulk_viscosity)
-        self.wall_lo, self.wall_hi = ph.wall_lo, ph.wall_hi  # the wall planes of the particle update
         # Newton iterations see no new failure (a law's state switching between iterations makes the
         # residual discontinuous); the accepted step evaluates it at the converged displacement
         self._updates = []
@@ -305,6 +304,14 @@ class ImplicitSolver:
         self._f_chunks: list[wp.array] = []
         self._F = self._L = self._sig = self._c = self._q = wp.empty(0, device=dev)  # the update's (:meth:`_scratch`)
         self.n_row = wp.full(n, -1, dtype=int, device=dev)
+        # the implicit kernels' own argument structs (mpm.implicit_kernels.implicit_structs), with the phases'
+        # Particles, Grid and Step (mpm.kernels.kernel_structs)
+        structs = implicit_structs(t)
+        N = self.node_args = structs.Nodes()
+        N.m, N.mv, N.ma, N.fb, N.cm, N.cmv = self.n_m, self.n_mv, self.n_ma, self.n_fb, self.n_cm, self.n_cmv
+        N.v, N.a, N.free, N.vc = self.n_v, self.n_a, self.n_free, self.n_vc
+        N.u, N.dv, N.v_new, N.a_new, N.row = self.n_u, self.n_dv, self.n_vnew, self.n_anew, self.n_row
+        self.trial_args = structs.Trial()  # its members set by _scratch
         _, ny, nz = model.grid.node_shape
         sx, sy = ny * nz, nz
         NP, NB = self.ik.NP, self.ik.NB
@@ -336,6 +343,25 @@ class ImplicitSolver:
     @property
     def n_nodes(self) -> int:
         return self.phases.n_nodes
+
+    @property
+    def wall_lo(self) -> Any:
+        """Wall planes [m] of the lower grid faces (:attr:`ExplicitSolver.wall_lo`): the particle update keeps
+        positions on the grid side of them."""
+        return self.phases.wall_lo
+
+    @wall_lo.setter
+    def wall_lo(self, value: Any) -> None:
+        self.phases.wall_lo = value
+
+    @property
+    def wall_hi(self) -> Any:
+        """Wall planes [m] of the upper grid faces (:attr:`ExplicitSolver.wall_hi`)."""
+        return self.phases.wall_hi
+
+    @wall_hi.setter
+    def wall_hi(self, value: Any) -> None:
+        self.phases.wall_hi = value
 
     @property
     def anti_locking(self) -> str:
@@ -428,24 +454,23 @@ class ImplicitSolver:
         return h
 
     # ------------------------------------------------------------------------------ pieces
-    def _common(self) -> list[Any]:
-        """The grid arguments of the kernels: origin, 1/h, cells per axis."""
+    def _args(self, st: State) -> list[Any]:
+        """The struct arguments of the kernels: the state's ``Particles``, the phases' ``Grid`` and ``Step``
+        (:func:`~tissuempm.mpm.kernels.kernel_structs`), the ``Nodes`` and ``Trial`` of
+        :func:`~tissuempm.mpm.implicit_kernels.implicit_structs`."""
         ph = self.phases
-        return [ph.origin, self.t.scalar(1.0 / ph.h), ph.dims]
+        return [st.kernel_args, ph.grid_args, ph.step_args, self.node_args, self.trial_args]
 
     def _nodal(self, st: State) -> dict[str, np.ndarray]:
-        """P2G and the nodal pass; NumPy copies (views on the CPU) of the nodal fields."""
-        ph, s = self.phases, self.t.scalar
+        """P2G and the nodal pass (the state's accelerations from :meth:`_scratch`); NumPy copies (views
+        on the CPU) of the nodal fields."""
+        ph, S = self.phases, self.phases.step_args
         for a in (self.n_m, self.n_cm, self.n_mv, self.n_ma, self.n_fb, self.n_cmv):
             a.zero_()
-        body = ph._body if ph._body is not None else st.vpic
-        wp.launch(self.ik.p2g, dim=st.n, device=self.device, inputs=[
-            st.x, st.v, st.acc, st.mass, st.size, st.F, st.material, st.fixed, ph.mat_rigid, ph.rigid_vel,
-            body, int(ph._body is not None), *self._common(), self.n_m, self.n_mv, self.n_ma, self.n_fb, self.n_cm,
-            self.n_cmv])  # fmt: skip
-        wp.launch(self.ik.nodes, dim=self.n_nodes, device=self.device, inputs=[
-            self.n_m, self.n_mv, self.n_ma, self.n_cm, self.n_cmv, s(st.min_node_mass), ph.dims,
-            len(ph._bc_face), ph.bc_kind, ph.bc_vel, self.n_v, self.n_a, self.n_free, self.n_vc])  # fmt: skip
+        S.body = ph._body if ph._body is not None else st.vpic  # placeholder array when unused
+        S.min_mass = self.t.scalar(st.min_node_mass)
+        wp.launch(self.ik.p2g, dim=st.n, device=self.device, inputs=[*self._args(st), int(ph._body is not None)])
+        wp.launch(self.ik.nodes, dim=self.n_nodes, device=self.device, inputs=[ph.grid_args, S, self.node_args])
         return {k: np.asarray(getattr(self, "n_" + k).numpy(), dtype=float)
                 for k in ("m", "v", "a", "fb", "free", "vc", "cm", "cmv")}
 
@@ -455,27 +480,24 @@ class ImplicitSolver:
         """Particle update at nodal displacement ``u`` and the assembly: (f_int, K blocks). With
         ``stiffness`` (a Newton iteration) no particle fails anew; without (the accepted step) the
         laws' failure is evaluated."""
-        ph, s, cfg = self.phases, self.t.scalar, self.config
+        ph = self.phases
         self.n_u.assign(u.astype(self.t.numpy))
         ph._fill(st, "bad", st.n)
-        common = self._common()
-        bulk = [s(ph.h), s(cfg.bulk_viscosity_linear), s(cfg.bulk_viscosity_quadratic), self._q]
+        ph.step_args.dt = self.t.scalar(dt)
+        P, G, S, N, U = self._args(st)
 
         def update(c: int, b: int, e: int) -> None:
             for i, prm, frozen, kern in self._updates:
-                ph._launch(kern, e - b, [
-                    i, frozen if stiffness else prm, st.x, st.size, st.F, self.n_u, st.material, st.fiber, st.history,
-                    st.history_next, *common, s(dt), self._F, self._L, self._sig, self._c, st.bad, b,
-                    c * SLOT, *bulk], c)  # fmt: skip
+                ph._launch(kern, e - b, [i, frozen if stiffness else prm, P, G, S, N, U, st.history, st.history_next,
+                                         b, c * SLOT], c)  # fmt: skip
 
         def assemble(c: int, b: int, e: int) -> None:
             f, Kb = self._f_chunks[c], self._K_chunks[c]
             f.zero_()
             if stiffness:
                 Kb.zero_()
-            ph._launch(self.ik.assemble, e - b, [
-                st.x, st.size, st.F, self._F, self._sig, self._c, st.volume0, st.material, ph.mat_rigid, *common,
-                int(stiffness), f, self.n_row, Kb, b, self._symmetric], ("assemble", c))  # fmt: skip
+            ph._launch(self.ik.assemble, e - b, [P, G, N, U, int(stiffness), f, Kb, b, self._symmetric],
+                       ("assemble", c))  # fmt: skip
 
         ph._parallel([lambda c=c, b=b, e=e: update(c, b, e) for c, (b, e) in enumerate(st.chunks)])  # type: ignore[misc]
         bad = int(ph._slots(st, "bad").min())
@@ -545,6 +567,7 @@ class ImplicitSolver:
         """One implicit step of size ``dt`` (raises :class:`NotConverged`)."""
         cfg = self.implicit
         alpha = self.config.damping if cfg.dynamic else 0.0  # quasi-static: refused (check_implicit)
+        self._scratch(st)
         nd = self._nodal(st)
         m = nd["m"]
         n = self.n_nodes
@@ -561,7 +584,6 @@ class ImplicitSolver:
         u = np.zeros((n, 3))
         ua = (dt * v0 + (0.5 * dt * dt * a0 if cfg.dynamic else 0.0))  # predictor
         ua = np.where(free, ua, dt * nd["vc"][act].ravel())
-        self._scratch(st)
         norm_f = 0.0
         for it in range(1, cfg.max_iterations + 1):
             u[act] = ua.reshape(-1, 3)
@@ -612,11 +634,15 @@ class ImplicitSolver:
         self._accept(st, dt, act, u, v_new, a_new, v0, reaction, nd)
 
     def _scratch(self, st: State) -> None:
-        """Per-particle arrays of the update (F, L, sigma, tangent, bulk-viscosity pressure q), sized to the state."""
+        """Per-particle arrays of the update (F, L, sigma, tangent, bulk-viscosity pressure q), sized to the state,
+        and the state's accelerations, in the kernels' ``Trial`` struct."""
+        U = self.trial_args
         if self._F.shape[0] != st.n:
             self._F, self._L, self._sig = (wp.zeros(st.n, dtype=self.t.mat33, device=self.device) for _ in range(3))
             self._c = wp.zeros(st.n, dtype=mat66(self.t), device=self.device)
             self._q = wp.zeros(st.n, dtype=self.t.scalar, device=self.device)
+            U.F, U.L, U.sig, U.c, U.q = self._F, self._L, self._sig, self._c, self._q
+        U.acc = st.acc
 
     def _node_position(self, node: int) -> np.ndarray:
         """Position [m] of flat node index ``node``."""
@@ -626,7 +652,7 @@ class ImplicitSolver:
                 v0: np.ndarray, reaction: np.ndarray, nd: dict[str, np.ndarray]) -> None:  # fmt: skip
         """Particle update of a converged step, reactions on the constraints, tracked peaks, history
         swap, then the explicit solver's checks and removal."""
-        ph, s = self.phases, self.t.scalar
+        ph = self.phases
         n = self.n_nodes
         dv, vn, an = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
         dv[act] = (v_new - v0).reshape(-1, 3)
@@ -644,12 +670,8 @@ class ImplicitSolver:
             wp.launch(ph.kern.reaction, dim=st.n, device=self.device,
                       inputs=[st.kernel_args, ph.grid_args, 0])  # the explicit structs (mpm.kernels.kernel_structs)
         ph._fill(st, "bad", st.n)
-        bulk = [st.bulk_q, st.bulk_work] if self.config.bulk_viscosity else [st.work, st.work]  # placeholders when off
-        wp.launch(self.ik.finish, dim=st.n, device=self.device, inputs=[
-            st.x, st.v, st.acc, st.vpic, st.size, st.F, st.material, st.fixed, ph.mat_rigid, ph.rigid_vel,
-            self.n_u, self.n_dv, self.n_vnew, self.n_anew, *self._common(), s(dt),
-            s(self.config.flip), ph.lower, ph.upper, self.wall_lo, self.wall_hi, st.bad, st.stress, self._sig,
-            self._L, self._F, st.volume0, st.work, self._q, *bulk])  # fmt: skip
+        ph.step_args.dt = self.t.scalar(dt)
+        wp.launch(self.ik.finish, dim=st.n, device=self.device, inputs=self._args(st))
         wp.copy(st.F, self._F)
         wp.copy(st.L, self._L)
         wp.copy(st.stress, self._sig)

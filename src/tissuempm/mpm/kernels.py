@@ -23,6 +23,7 @@ from typing import Any
 
 import warp as wp
 
+from tissuempm.materials.base import header
 from tissuempm.mpm.model import GHOST
 from tissuempm.mpm.rigid_pulses import rigid_motion_functions
 from tissuempm.mpm.shape_functions import GIMP_SHAPES, STENCIL, axis_weights, particle_domain
@@ -279,7 +280,8 @@ def kernel_structs(t: WarpTypes) -> SimpleNamespace:
         slots, one per state (:meth:`ExplicitSolver.attach <tissuempm.mpm.solver.ExplicitSolver.attach>`,
         rebuilt when particles are removed). ``xs`` holds the stencil positions (``x``, or ``xref`` on a
         grid without reset) and ``F_ref`` the deformation at the last reset (else ``F``); ``bulk_q`` and
-        ``bulk_work`` are ``work`` without bulk viscosity (never read then).
+        ``bulk_work`` are ``work`` without bulk viscosity (never read then); ``code`` and the slots ``drop`` are the
+        removal classification's (:mod:`tissuempm.mpm.removal`).
     ``Grid``
         The solver's grid (geometry, wall planes), nodal records ``g_*``, chunk buffers ``b_*`` (n_chunks, records),
         rigid-material and grid-face tables: one per solver.
@@ -320,6 +322,8 @@ def kernel_structs(t: WarpTypes) -> SimpleNamespace:
         hi: wp.array(dtype=int)
         bad: wp.array(dtype=int)
         speed: wp.array(dtype=s)
+        drop: wp.array(dtype=int)
+        code: wp.array(dtype=wp.int32)
 
     @wp.struct
     class Grid:
@@ -777,21 +781,14 @@ def _reaction(t: WarpTypes, shape: str, NF: int) -> Any:
 
 @functools.cache
 def _rigid_speed(t: WarpTypes) -> Any:
-    s, vec3 = t.scalar, t.vec3
+    A = kernel_structs(t)
 
     @kernel
-    def rigid_speed(
-        v: wp.array(dtype=vec3),
-        material: wp.array(dtype=wp.int32),
-        mat_rigid: wp.array(dtype=wp.int32),
-        begin: int,
-        c: int,
-        out: wp.array(dtype=s),
-    ):
-        """Signal speed |v| of rigid particles (no wave speed)."""
+    def rigid_speed(P: A.Particles, G: A.Grid, begin: int, c: int):
+        """Signal speed |v| of rigid particles (no wave speed) into ``P.speed``."""
         p = begin + wp.tid()
-        if mat_rigid[material[p]] != 0:
-            wp.atomic_max(out, c, wp.length(v[p]))
+        if G.mat_rigid[P.material[p]] != 0:
+            wp.atomic_max(P.speed, c, wp.length(P.v[p]))
 
     return rigid_speed
 
@@ -849,11 +846,12 @@ def material_kernels(cls: type, t: WarpTypes, bulk_viscosity: bool = False) -> S
     moduli_fn = cls.moduli_function(t.precision)
     BV = bulk_viscosity
     A = kernel_structs(t)
+    density = header(t).density
 
     @wp.func
     def speed_of(K: s, Gm: s, J: s, prm: wp.array(dtype=s)):
         """c = sqrt((K + 4G/3) / rho), rho = rho0 / J (Ionescu et al. 2006 eq. 9)."""
-        c2 = (K + s(4.0) / s(3.0) * Gm) * J / prm[0]
+        c2 = (K + s(4.0) / s(3.0) * Gm) * J / density(prm)
         return wp.sqrt(wp.max(c2, s(0.0)))
 
     @wp.func
@@ -905,7 +903,7 @@ def material_kernels(cls: type, t: WarpTypes, bulk_viscosity: bool = False) -> S
             q = s(0.0)
             Q = s(0.0)
             if trD < s(0.0):
-                q = prm[0] / J * h * (c_quad * h * trD * trD - c_lin * cw * trD)
+                q = density(prm) / J * h * (c_quad * h * trD * trD - c_lin * cw * trD)
                 Q = c_lin * cw - c_quad * h * trD
             P.bulk_work[p] = P.bulk_work[p] - s(0.5) * (P.bulk_q[p] + q) * trD * P.vol0[p] * J * dt
             P.bulk_q[p] = q
@@ -919,22 +917,11 @@ def material_kernels(cls: type, t: WarpTypes, bulk_viscosity: bool = False) -> S
             wp.atomic_min(P.bad, c, p)
 
     @kernel
-    def speed(
-        mat_id: int,
-        prm: wp.array(dtype=s),
-        F: wp.array(dtype=mat33),
-        fiber: wp.array(dtype=vec3),
-        s_in: wp.array2d(dtype=s),
-        v: wp.array(dtype=vec3),
-        material: wp.array(dtype=wp.int32),
-        begin: int,
-        c: int,
-        out: wp.array(dtype=s),
-    ):
-        """Signal speed c + |v| of the law's particles (see ``signal_speed``)."""
+    def speed(mat_id: int, prm: wp.array(dtype=s), P: A.Particles, s_in: wp.array2d(dtype=s), begin: int, c: int):
+        """Signal speed c + |v| of the law's particles (see ``signal_speed``) into ``P.speed`` (history ``s_in``)."""
         p = begin + wp.tid()
-        if material[p] != mat_id:
+        if P.material[p] != mat_id:
             return
-        wp.atomic_max(out, c, signal_speed(F[p], fiber[p], prm, s_in, p, v[p]))
+        wp.atomic_max(P.speed, c, signal_speed(P.F[p], P.fiber[p], prm, s_in, p, P.v[p]))
 
     return SimpleNamespace(stress=stress, speed=speed)

@@ -34,6 +34,7 @@ import numpy as np
 import warp as wp
 
 from tissuempm.materials.base import Material
+from tissuempm.mpm.kernels import kernel_structs
 from tissuempm.precision import WarpTypes, kernel
 
 KEEP = 0
@@ -64,54 +65,41 @@ def erosion_slots(materials: list[Any]) -> np.ndarray:
 
 @functools.cache
 def classify_kernel(t: WarpTypes) -> Any:
-    """``classify(x, v, F, stress, material, mat_rigid, history, erode_slot, lower, upper, full,
-    begin, c, code, count)``: the code (module constants) of each particle of the chunk
-    ``[begin, begin + dim)``; ``count[c]`` += the particles to remove or stop on. ``full`` = 0
-    tests erosion only (nothing was flagged in the step)."""
-    s, vec3, mat33 = t.scalar, t.vec3, t.mat33
+    """``classify(P, G, history, erode_slot, full, begin, c)``: the code (module constants) of each
+    particle of the chunk ``[begin, begin + dim)`` into ``P.code``; ``P.drop[c]`` += the particles to
+    remove or stop on (``P``, ``G``: the solver's structs, :func:`tissuempm.mpm.kernels.kernel_structs`;
+    outside the grid is outside ``[G.lower, G.upper]``). ``erode_slot``: :func:`erosion_slots`;
+    ``full`` = 0 tests erosion only (nothing was flagged in the step)."""
+    A = kernel_structs(t)
+    s = t.scalar
 
     @kernel
-    def classify(
-        x: wp.array(dtype=vec3),
-        v: wp.array(dtype=vec3),
-        F: wp.array(dtype=mat33),
-        stress: wp.array(dtype=mat33),
-        material: wp.array(dtype=wp.int32),
-        mat_rigid: wp.array(dtype=wp.int32),
-        history: wp.array2d(dtype=s),
-        erode_slot: wp.array(dtype=wp.int32),
-        lower: vec3,
-        upper: vec3,
-        full: int,
-        begin: int,
-        c: int,
-        code: wp.array(dtype=wp.int32),
-        count: wp.array(dtype=int),
-    ):
+    def classify(P: A.Particles, G: A.Grid, history: wp.array2d(dtype=s), erode_slot: wp.array(dtype=wp.int32),
+                 full: int, begin: int, c: int):  # fmt: skip
         p = begin + wp.tid()
-        m = material[p]
+        m = P.material[p]
         k = int(0)
         if full != 0:
-            xp = x[p]
-            if not (wp.isfinite(xp) and wp.isfinite(v[p]) and wp.isfinite(F[p]) and wp.isfinite(stress[p])):
+            xp = P.x[p]
+            if not (wp.isfinite(xp) and wp.isfinite(P.v[p]) and wp.isfinite(P.F[p]) and wp.isfinite(P.stress[p])):
                 k = 3
             else:
                 for a in range(3):
-                    if xp[a] < lower[a] or xp[a] > upper[a]:
+                    if xp[a] < G.lower[a] or xp[a] > G.upper[a]:
                         k = 1
         if k == 0:
             slot = erode_slot[m]
             if slot >= 0:
                 if history[p, slot] != s(0.0):
                     k = 2
-        if k == 0 and full != 0 and mat_rigid[m] == 0:
-            if not (wp.determinant(F[p]) > s(0.0)):
-                sp = stress[p]
+        if k == 0 and full != 0 and G.mat_rigid[m] == 0:
+            if not (wp.determinant(P.F[p]) > s(0.0)):
+                sp = P.stress[p]
                 if wp.ddot(sp, sp) != s(0.0):
                     k = 3
-        code[p] = wp.int32(k)
+        P.code[p] = wp.int32(k)
         if k != 0:
-            wp.atomic_add(count, c, 1)
+            wp.atomic_add(P.drop, c, 1)
 
     return classify
 

@@ -118,11 +118,8 @@ class ExplicitSolver:
         self.lower = self.t.vec3(*grid.origin)
         self.upper = self.t.vec3(*grid.upper)
         self.n_nodes = grid.n_nodes * self.n_fields  # nodal records: one per node and velocity field
-        if model.contact is not None:
-            kind, mu, gap = model.contact.tables()
-            self.law_kind: wp.array = wp.array(kind, dtype=wp.int32, device=self.device)
-            self.law_mu: wp.array = wp.array(mu.astype(self.t.numpy), dtype=self.t.scalar, device=self.device)
-            self.law_gap: wp.array = wp.array(gap, dtype=wp.int32, device=self.device)
+        if model.contact is not None:  # the contact kernel's law tables (mpm.contact.contact_struct)
+            self.contact_args: Any = model.contact.kernel_args(self.t, self.device)
         # materials
         n_mat = len(model.materials)
         self.laws: list[tuple[int, Material, Any, wp.array]] = []
@@ -145,7 +142,7 @@ class ExplicitSolver:
         self._erodes = bool(np.any(slots >= 0))
         self.erode_slot: wp.array = wp.array(slots, dtype=wp.int32, device=self.device)
         self.anti_locking = cfg.anti_locking or ("none" if self.axisymmetric else self.default_anti_locking)
-        self.volumetric = CellAverage(self) if self.anti_locking == "fbar" else None
+        self.volumetric = CellAverage(self) if self.anti_locking != "none" else None
         # grid faces
         kinds = np.zeros(6, dtype=np.int32)
         self._bc_velocity = np.zeros((6, 3))
@@ -372,6 +369,7 @@ class ExplicitSolver:
         else:  # placeholders, never read
             P.bulk_q, P.bulk_work = st.work, st.work
         P.n_chunks, P.lo, P.hi, P.bad, P.speed = len(st.chunks), st.lo, st.hi, st.bad, st.speed
+        P.drop, P.code = st.drop, st.code
         return P
 
     # ------------------------------------------------------------------------------ helpers
@@ -495,8 +493,7 @@ class ExplicitSolver:
             def run() -> None:
                 slot = c * K.SLOT
                 for i, _, mk, prm in self.laws:
-                    self._launch(mk.speed, e - b,
-                                 [i, prm, st.F, st.fiber, st.history, st.v, st.material, b, slot, st.speed], c)
+                    self._launch(mk.speed, e - b, [i, prm, st.kernel_args, st.history, b, slot], c)
                 self._rigid_speed(st, c, b, e)
 
             return run
@@ -505,7 +502,7 @@ class ExplicitSolver:
 
     def _rigid_speed(self, st: State, c: int, b: int, e: int) -> None:
         if self._has_rigid:
-            self._launch(self.kern.rigid_speed, e - b, [st.v, st.material, self.mat_rigid, b, c * K.SLOT, st.speed], c)
+            self._launch(self.kern.rigid_speed, e - b, [st.kernel_args, self.grid_args, b, c * K.SLOT], c)
 
     def _rasterize(self, st: State, flags: int) -> list[Callable[[], None]]:
         """Per chunk: P2G of the fields ``flags`` into its (clean) buffer; with MASS the chunk's
@@ -561,21 +558,18 @@ class ExplicitSolver:
         args = [st.kernel_args, self.grid_args, S]
         self._split(start, stop, lambda a, b: self._launch(kernel, b - a, [a, *args], a))
         if self.n_fields > 1:
-            self._contact(st, mode, dt, start, stop)
+            self._contact(mode, dt, start, stop)
 
-    def _contact(self, st: State, mode: int, dt: float, start: int, stop: int) -> None:
+    def _contact(self, mode: int, dt: float, start: int, stop: int) -> None:
         """Contact correction (:func:`~tissuempm.mpm.contact.contact_kernel`) at the nodes whose
         records ``[start, stop)`` were just solved: ``v_new``, the FLIP increment and the rigid
-        reactions after an UPDATE pass, the constrained velocity after a VELOCITY pass."""
+        reactions after an UPDATE pass, the constrained velocity after a VELOCITY pass (the grid and
+        step structs as that pass left them, the empty-node mass ``S.min_mass`` included)."""
         nf = self.n_fields
-        s = self.t.scalar
         kernel = self._ready(contact_kernel(self.t, mode, nf, self.config.shape, self.axisymmetric))
-        v_vel = self.g_vgrad if mode == K.VELOCITY else self.g_vnew
-        args = [
-            self.g_mm, self.g_c, self.g_x, v_vel, self.g_vinc, self.g_react, self.law_kind, self.law_mu, self.law_gap,
-            s(st.min_node_mass), s(1.0 / dt), s(1.0 / self.h), start, stop, self.dims, len(self._bc_face),
-            self.bc_kind, self.bc_vel,
-        ]  # fmt: skip
+        C = self.contact_args
+        C.inv_dt = self.t.scalar(1.0 / dt)
+        args = [self.grid_args, self.step_args, C, start, stop]
         self._split(start // nf, (stop - 1) // nf + 1,
                     lambda a, b: self._launch(kernel, b - a, [a, *args], ("contact", a)))
 
@@ -589,7 +583,6 @@ class ExplicitSolver:
         scatters the new momentum into the chunk's buffer). On a grid that is not reset the
         stencils sit at the reference positions, so POSITION (which moves ``x``) is a pass of its own."""
         s = self.t.scalar
-        xs = self._stencil_positions(st)
         passes = self._gather_passes(flags, v_grad is self.g_vnew)
         kernels = [self._ready(self.kern.g2p(f)) for f in passes]  # stencils at P.xs, positions P.x
         reaction = flags & K.MOVE and st.constrained and (self.reactions or self.free is not None)
@@ -602,7 +595,7 @@ class ExplicitSolver:
                 if reaction:  # before MOVE: the stencil is at the old position
                     self._launch(self.kern.reaction, e - b, [P, G, b], c)
                     if self.free is not None:  # rotating free bodies: force and torque (mpm.free_bodies)
-                        self.free.share(st, c, b, e, xs)
+                        self.free.share(st, c, b, e)
                 for g2p in kernels:
                     self._launch(g2p, e - b, [P, G, S, self._row_args[c], v_grad, b, c * K.SLOT], c)
 
@@ -722,11 +715,10 @@ class ExplicitSolver:
         not only erosion."""
         kern = self._ready(classify_kernel(self.t))
         self._fill(st, "drop", 0)
-        args = [st.x, st.v, st.F, st.stress, st.material, self.mat_rigid, st.history, self.erode_slot, self.lower,
-                self.upper, int(full)]  # fmt: skip
+        args = [st.kernel_args, self.grid_args, st.history, self.erode_slot, int(full)]
 
         def task(c: int, b: int, e: int) -> Callable[[], None]:
-            return lambda: self._launch(kern, e - b, [*args, b, c * K.SLOT, st.code, st.drop], c)
+            return lambda: self._launch(kern, e - b, [*args, b, c * K.SLOT], c)
 
         self._per_chunk([task(c, b, e) for c, (b, e) in enumerate(st.chunks)])
         if int(self._slots(st, "drop").sum()) == 0:

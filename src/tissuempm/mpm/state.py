@@ -44,50 +44,21 @@ class StateSolver(Protocol):
     def attach(self, state: "State") -> None: ...
 
 
-# name -> (kind, components) of the particle arrays that travel through to_numpy/from_numpy
-PARTICLE_FIELDS: dict[str, tuple[str, tuple[int, ...]]] = {
-    "x": ("vec3", (3,)),
-    "x0": ("vec3", (3,)),
-    "v": ("vec3", (3,)),
-    "mass": ("scalar", ()),
-    "volume0": ("scalar", ()),
-    "size": ("vec3", (3,)),
-    "F": ("mat33", (3, 3)),
-    "L": ("mat33", (3, 3)),
-    "stress": ("mat33", (3, 3)),
-    "material": ("int", ()),
-    "fiber": ("vec3", (3,)),
-    "fixed": ("int", ()),
-    "field": ("int", ()),
-    "work": ("scalar", ()),
-    "reaction": ("vec3", (3,)),
-    "vpic": ("vec3", (3,)),
-    "id": ("int", ()),
-}
-"""Particle arrays of a :class:`State` (all in storage order)."""
-RESTART_FIELDS: tuple[str, ...] = tuple(PARTICLE_FIELDS) + ("state",)
-OPTIONAL_FIELDS: dict[str, tuple[str, tuple[int, ...]]] = {
-    "xref": ("vec3", (3,)),
-    "Fref": ("mat33", (3, 3)),
-    "acc": ("vec3", (3,)),
-    "bulk_q": ("scalar", ()),
-    "bulk_work": ("scalar", ()),
-    "peak_mps": ("scalar", ()),
-    "peak_mps_time": ("scalar", ()),
-    "peak_von_mises": ("scalar", ()),
-    "peak_von_mises_time": ("scalar", ()),
-}
-"""Particle arrays that only some solvers carry (allocated when the solver lists them in
-``extra_fields``): ``xref`` and ``Fref``, the positions [m] and deformation gradient at the last
-grid reset of a grid that is not reset every step (:mod:`tissuempm.mpm.reference_grid`), and
-``acc``, the particle acceleration [m/s^2] of the implicit Newmark integrator
-(:mod:`tissuempm.mpm.implicit`), and ``bulk_q`` and ``bulk_work``, the artificial bulk viscosity's
-pressure [Pa] of the last step and the energy it has dissipated [J] (:class:`~tissuempm.mpm.config.SolverConfig`),
-and ``peak_mps``, ``peak_von_mises`` and their ``_time``, the peak maximum principal Green strain [-]
-and von Mises stress [Pa] over the run and when each was reached [s] (``SolverConfig.track``,
-:mod:`tissuempm.mpm.tracking`). They travel through sorting, :meth:`State.to_numpy` and restarts."""
-OPTIONAL_DEFAULTS: dict[str, str] = {"xref": "x", "Fref": "F"}
-"""The optional arrays that start as a copy of another (a grid reset at the start or restart); the others start at 0."""
+COMPONENTS: dict[str, tuple[int, ...]] = {"scalar": (), "int": (), "vec3": (3,), "mat33": (3, 3)}
+"""Trailing NumPy shape of one particle's entry of a particle array of each kind (:func:`warp_array`)."""
+
+
+def particle_array(kind: str, start: str | None = None) -> dict[str, Any]:
+    """The metadata that declares a field of :class:`State` a particle array
+    (``dataclasses.field(metadata=particle_array("vec3"))``): its ``kind``, a key of
+    :data:`COMPONENTS`, and for an optional array (default None: a solver carries it when it lists it
+    in ``extra_fields``) the array ``start`` it starts as a copy of (else 0). :data:`PARTICLE_FIELDS`,
+    :data:`OPTIONAL_FIELDS` and :data:`OPTIONAL_DEFAULTS` are read from it, so each array is declared once."""
+    if kind not in COMPONENTS:
+        raise ValueError(f"particle array kind {kind!r}: choose from {', '.join(COMPONENTS)}")
+    return {"kind": kind, "start": start}
+
+
 REMOVAL_REASONS: tuple[str, ...] = ("outflow", "eroded")
 """Why particles are taken out of a run (:meth:`State.remove`): ``"outflow"``, they left the grid
 through a face without a wall (``SolverConfig.outflow = "remove"``); ``"eroded"``, their law
@@ -107,12 +78,13 @@ class State:
     next to the static :class:`~tissuempm.mpm.model.Model` and the step inputs
     :class:`~tissuempm.mpm.config.Control`.
 
-    Every array a state can hold is declared here: the :data:`PARTICLE_FIELDS` (always there), the
-    history, and the :data:`OPTIONAL_FIELDS` (None unless the solver carries them, its
-    ``extra_fields``). :meth:`allocate` builds a state from NumPy arrays; the solver then sets up its
-    chunks, per-chunk slots and kernel structs (:meth:`ExplicitSolver.attach
-    <tissuempm.mpm.solver.ExplicitSolver.attach>`, which :meth:`~ExplicitSolver.initial_state` and
-    :meth:`from_numpy` call).
+    Every array a state can hold is declared here, once: the particle arrays with
+    :func:`particle_array` metadata (their kind), from which the tables
+    :data:`PARTICLE_FIELDS` (always there) and :data:`OPTIONAL_FIELDS` (None unless the solver
+    carries them, its ``extra_fields``) are read, then the history. :meth:`allocate` builds a state
+    from NumPy arrays; the solver then sets up its chunks, per-chunk slots and kernel structs
+    (:meth:`ExplicitSolver.attach <tissuempm.mpm.solver.ExplicitSolver.attach>`, which
+    :meth:`~ExplicitSolver.initial_state` and :meth:`from_numpy` call).
 
     Attributes
     ----------
@@ -174,34 +146,34 @@ class State:
         arrays, which the transfer and stress kernels take (built by the solver, rebuilt after a removal).
     """
 
-    x: wp.array
-    x0: wp.array
-    v: wp.array
-    mass: wp.array
-    volume0: wp.array
-    size: wp.array
-    F: wp.array
-    L: wp.array
-    stress: wp.array
-    material: wp.array
-    fiber: wp.array
-    fixed: wp.array
-    field: wp.array
-    work: wp.array
-    reaction: wp.array
-    vpic: wp.array
-    id: wp.array
+    x: wp.array = dataclasses.field(metadata=particle_array("vec3"))
+    x0: wp.array = dataclasses.field(metadata=particle_array("vec3"))
+    v: wp.array = dataclasses.field(metadata=particle_array("vec3"))
+    mass: wp.array = dataclasses.field(metadata=particle_array("scalar"))
+    volume0: wp.array = dataclasses.field(metadata=particle_array("scalar"))
+    size: wp.array = dataclasses.field(metadata=particle_array("vec3"))
+    F: wp.array = dataclasses.field(metadata=particle_array("mat33"))
+    L: wp.array = dataclasses.field(metadata=particle_array("mat33"))
+    stress: wp.array = dataclasses.field(metadata=particle_array("mat33"))
+    material: wp.array = dataclasses.field(metadata=particle_array("int"))
+    fiber: wp.array = dataclasses.field(metadata=particle_array("vec3"))
+    fixed: wp.array = dataclasses.field(metadata=particle_array("int"))
+    field: wp.array = dataclasses.field(metadata=particle_array("int"))
+    work: wp.array = dataclasses.field(metadata=particle_array("scalar"))
+    reaction: wp.array = dataclasses.field(metadata=particle_array("vec3"))
+    vpic: wp.array = dataclasses.field(metadata=particle_array("vec3"))
+    id: wp.array = dataclasses.field(metadata=particle_array("int"))
     history: wp.array
     history_next: wp.array
-    xref: wp.array | None = None
-    Fref: wp.array | None = None
-    acc: wp.array | None = None
-    bulk_q: wp.array | None = None
-    bulk_work: wp.array | None = None
-    peak_mps: wp.array | None = None
-    peak_mps_time: wp.array | None = None
-    peak_von_mises: wp.array | None = None
-    peak_von_mises_time: wp.array | None = None
+    xref: wp.array | None = dataclasses.field(default=None, metadata=particle_array("vec3", start="x"))
+    Fref: wp.array | None = dataclasses.field(default=None, metadata=particle_array("mat33", start="F"))
+    acc: wp.array | None = dataclasses.field(default=None, metadata=particle_array("vec3"))
+    bulk_q: wp.array | None = dataclasses.field(default=None, metadata=particle_array("scalar"))
+    bulk_work: wp.array | None = dataclasses.field(default=None, metadata=particle_array("scalar"))
+    peak_mps: wp.array | None = dataclasses.field(default=None, metadata=particle_array("scalar"))
+    peak_mps_time: wp.array | None = dataclasses.field(default=None, metadata=particle_array("scalar"))
+    peak_von_mises: wp.array | None = dataclasses.field(default=None, metadata=particle_array("scalar"))
+    peak_von_mises_time: wp.array | None = dataclasses.field(default=None, metadata=particle_array("scalar"))
     time: float = 0.0
     step: int = 0
     dt_ref: float | None = None
@@ -265,42 +237,25 @@ class State:
         hist = np.asarray(arrays["state"], dtype=float).reshape(n, -1)
         if n_state is not None and hist.shape[1] != n_state:
             raise ValueError(f"state has {hist.shape[1]} history columns, the model needs {n_state}")
-        return cls(
-            x=w("x"), x0=w("x0"), v=w("v"), mass=w("mass"), volume0=w("volume0"), size=w("size"), F=w("F"),
-            L=w("L"), stress=w("stress"), material=w("material"), fiber=w("fiber"), fixed=w("fixed"),
-            field=w("field"), work=w("work"), reaction=w("reaction"), vpic=w("vpic"), id=w("id"),
-            history=warp_array(hist, "2d", t, device), history_next=warp_array(hist, "2d", t, device),
-            xref=opt("xref"), Fref=opt("Fref"), acc=opt("acc"), bulk_q=opt("bulk_q"), bulk_work=opt("bulk_work"),
-            peak_mps=opt("peak_mps"), peak_mps_time=opt("peak_mps_time"), peak_von_mises=opt("peak_von_mises"),
-            peak_von_mises_time=opt("peak_von_mises_time"), materials=list(materials),
-        )  # fmt: skip
+        held: dict[str, Any] = {n: w(n) for n in PARTICLE_FIELDS} | {n: opt(n) for n in OPTIONAL_FIELDS}
+        return cls(**held, history=warp_array(hist, "2d", t, device), history_next=warp_array(hist, "2d", t, device),
+                   materials=list(materials))  # fmt: skip
 
     def arrays(self) -> dict[str, wp.array]:
         """The particle arrays this state carries, by name: :data:`PARTICLE_FIELDS`, then the
         :data:`OPTIONAL_FIELDS` it holds (the history is not among them)."""
-        out = {
-            "x": self.x, "x0": self.x0, "v": self.v, "mass": self.mass, "volume0": self.volume0, "size": self.size,
-            "F": self.F, "L": self.L, "stress": self.stress, "material": self.material, "fiber": self.fiber,
-            "fixed": self.fixed, "field": self.field, "work": self.work, "reaction": self.reaction,
-            "vpic": self.vpic, "id": self.id,
-        }  # fmt: skip
-        optional = {
-            "xref": self.xref, "Fref": self.Fref, "acc": self.acc, "bulk_q": self.bulk_q, "bulk_work": self.bulk_work,
-            "peak_mps": self.peak_mps, "peak_mps_time": self.peak_mps_time, "peak_von_mises": self.peak_von_mises,
-            "peak_von_mises_time": self.peak_von_mises_time,
-        }  # fmt: skip
+        out = {name: getattr(self, name) for name in PARTICLE_FIELDS}
+        optional = {name: getattr(self, name) for name in OPTIONAL_FIELDS}
         return out | {k: a for k, a in optional.items() if a is not None}
 
     def _replace_arrays(self, a: Mapping[str, wp.array]) -> None:
-        """Hold the arrays ``a`` (every name of :meth:`arrays`) instead of the present ones."""
-        self.x, self.x0, self.v, self.mass, self.volume0 = a["x"], a["x0"], a["v"], a["mass"], a["volume0"]
-        self.size, self.F, self.L, self.stress, self.material = a["size"], a["F"], a["L"], a["stress"], a["material"]
-        self.fiber, self.fixed, self.field, self.work = a["fiber"], a["fixed"], a["field"], a["work"]
-        self.reaction, self.vpic, self.id = a["reaction"], a["vpic"], a["id"]
-        self.xref, self.Fref, self.acc = a.get("xref"), a.get("Fref"), a.get("acc")
-        self.bulk_q, self.bulk_work = a.get("bulk_q"), a.get("bulk_work")
-        self.peak_mps, self.peak_mps_time = a.get("peak_mps"), a.get("peak_mps_time")
-        self.peak_von_mises, self.peak_von_mises_time = a.get("peak_von_mises"), a.get("peak_von_mises_time")
+        """Hold the arrays ``a`` (every name of :meth:`arrays`) instead of the present ones (the optional
+        arrays ``a`` lacks become None). The names are the declared fields of :data:`PARTICLE_FIELDS`
+        and :data:`OPTIONAL_FIELDS`: no attribute is made here."""
+        for name in PARTICLE_FIELDS:
+            setattr(self, name, a[name])
+        for name in OPTIONAL_FIELDS:
+            setattr(self, name, a.get(name))
 
     def slots(self) -> dict[str, wp.array]:
         """The per-chunk slot arrays by name (``lo``, ``hi``, ``bad``, ``speed``, ``drop``)."""
@@ -449,6 +404,34 @@ class State:
         elif cols > 0:
             wp.copy(self.history, tmp)
             wp.copy(self.history_next, tmp)
+
+
+def _particle_arrays(optional: bool) -> dict[str, tuple[str, tuple[int, ...]]]:
+    """name -> (kind, components) of the :func:`particle_array` fields of :class:`State`: the required ones, or
+    the ``optional`` ones (default None)."""
+    return {f.name: (f.metadata["kind"], COMPONENTS[f.metadata["kind"]]) for f in dataclasses.fields(State)
+            if "kind" in f.metadata and (f.default is None) == optional}  # fmt: skip
+
+
+PARTICLE_FIELDS: dict[str, tuple[str, tuple[int, ...]]] = _particle_arrays(optional=False)
+"""name -> (kind, components) of the particle arrays every :class:`State` holds (all in storage
+order), in declaration order: they travel through sorting, removal, :meth:`State.to_numpy` and restarts."""
+RESTART_FIELDS: tuple[str, ...] = tuple(PARTICLE_FIELDS) + ("state",)
+"""What :meth:`State.from_numpy` needs (some with defaults): :data:`PARTICLE_FIELDS` and the history ``state``."""
+OPTIONAL_FIELDS: dict[str, tuple[str, tuple[int, ...]]] = _particle_arrays(optional=True)
+"""Particle arrays that only some solvers carry (allocated when the solver lists them in
+``extra_fields``): ``xref`` and ``Fref``, the positions [m] and deformation gradient at the last
+grid reset of a grid that is not reset every step (:mod:`tissuempm.mpm.reference_grid`), and
+``acc``, the particle acceleration [m/s^2] of the implicit Newmark integrator
+(:mod:`tissuempm.mpm.implicit`), and ``bulk_q`` and ``bulk_work``, the artificial bulk viscosity's
+pressure [Pa] of the last step and the energy it has dissipated [J] (:class:`~tissuempm.mpm.config.SolverConfig`),
+and ``peak_mps``, ``peak_von_mises`` and their ``_time``, the peak maximum principal Green strain [-]
+and von Mises stress [Pa] over the run and when each was reached [s] (``SolverConfig.track``,
+:mod:`tissuempm.mpm.tracking`). They travel through sorting, :meth:`State.to_numpy` and restarts."""
+OPTIONAL_DEFAULTS: dict[str, str] = {
+    f.name: f.metadata["start"] for f in dataclasses.fields(State) if f.metadata.get("start") is not None
+}
+"""The optional arrays that start as a copy of another (a grid reset at the start or restart); the others start at 0."""
 
 
 def warp_array(values: np.ndarray, kind: str, t: Any, device: str) -> wp.array:

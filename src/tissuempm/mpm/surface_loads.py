@@ -171,9 +171,45 @@ def detect_surface(
 
 
 @functools.cache
+def wave_struct(t: WarpTypes) -> Any:
+    """The Warp struct ``BlastWave`` of :func:`blast_kernel` for types ``t``: one :class:`BlastLoad` on the device.
+
+    ``row``
+        Surface row of each particle id (-1 off the surface), (n_particles,) int32.
+    ``normal0``, ``area0``
+        The rows' normals N0 and area vectors a0 [m^2] (:class:`SurfaceParticles`).
+    ``t0``, ``x_ref``, ``d``, ``inv_speed``
+        Arrival time [s] at the reference point [m], unit direction, 1 / front speed [s/m].
+    ``incident``, ``reflected``, ``duration``, ``decay``, ``mode``
+        Incident and normal reflected peaks [Pa], positive duration [s], decay coefficient [1], and the
+        angle rule (its index in :data:`tissuempm.mpm.blast.REFLECTIONS`).
+    """
+    s, vec3 = t.scalar, t.vec3
+
+    @wp.struct
+    class BlastWave:
+        row: wp.array(dtype=wp.int32)
+        normal0: wp.array(dtype=vec3)
+        area0: wp.array(dtype=vec3)
+        t0: s
+        x_ref: vec3
+        d: vec3
+        inv_speed: s
+        incident: s
+        reflected: s
+        duration: s
+        decay: s
+        mode: int
+
+    return BlastWave
+
+
+@functools.cache
 def blast_kernel(t: WarpTypes) -> Any:
-    """``out[p] += -p(t, x, n) J F^-T a0 / m`` for the surface particles (:class:`BlastLoad`)."""
+    """``blast_acceleration(x0, F, mass, pid, W, t_a, t_b, out)``: ``out[p] += -p(t, x, n) J F^-T a0 / m`` for
+    the surface particles of the wave ``W`` (:func:`wave_struct`, :class:`BlastLoad`) over the step [t_a, t_b]."""
     s, vec3, mat33 = t.scalar, t.vec3, t.mat33
+    BlastWave = wave_struct(t)
 
     @wp.func
     def friedlander_integral(q: wp.float64, b: wp.float64) -> wp.float64:
@@ -186,28 +222,28 @@ def blast_kernel(t: WarpTypes) -> Any:
         return (one - (one - q) * e) / b - (one - e) / (b * b)
 
     @kernel
-    def blast_acceleration(
-        x0: wp.array(dtype=vec3), F: wp.array(dtype=mat33), mass: wp.array(dtype=s), pid: wp.array(dtype=wp.int32),
-        row: wp.array(dtype=wp.int32), normal0: wp.array(dtype=vec3), area0: wp.array(dtype=vec3),
-        t_a: s, t_b: s, t0: s, x_ref: vec3, d: vec3, inv_speed: s, incident: s, reflected: s, duration: s, decay: s,
-        mode: int, out: wp.array(dtype=vec3),
-    ):  # fmt: skip
+    def blast_acceleration(x0: wp.array(dtype=vec3), F: wp.array(dtype=mat33), mass: wp.array(dtype=s),
+                           pid: wp.array(dtype=wp.int32), W: BlastWave, t_a: s, t_b: s,
+                           out: wp.array(dtype=vec3)):  # fmt: skip
         """Particle p of the state: its surface row (by id), Nanson's area vector and normal, the
         ConWep peak at its incidence and the Friedlander factor at its arrival time (at its
         initial position ``x0``)."""
         p = wp.tid()
         i = pid[p]
-        if i < 0 or i >= row.shape[0]:
+        if i < 0 or i >= W.row.shape[0]:
             return
-        r = row[i]
+        r = W.row[i]
         if r < 0:
             return
+        duration = W.duration
+        decay = W.decay
+        incident = W.incident
         Fp = F[p]
         Fit = wp.transpose(wp.inverse(Fp))
-        a = wp.determinant(Fp) * (Fit * area0[r])
-        n = wp.normalize(Fit * normal0[r])
-        c = -wp.dot(n, d)
-        arrival = t0 + wp.dot(x0[p] - x_ref, d) * inv_speed
+        a = wp.determinant(Fp) * (Fit * W.area0[r])
+        n = wp.normalize(Fit * W.normal0[r])
+        c = -wp.dot(n, W.d)
+        arrival = W.t0 + wp.dot(x0[p] - W.x_ref, W.d) * W.inv_speed
         f = s(0.0)
         if t_b > t_a:  # the mean of the waveform over the step [t_a, t_b]: G(s) its integral
             qa = wp.clamp((t_a - arrival) / duration, s(0.0), s(1.0))
@@ -223,10 +259,10 @@ def blast_kernel(t: WarpTypes) -> Any:
             return
         peak = incident
         if c > s(0.0):
-            if mode == 0:
-                peak = reflected * c * c + incident * (s(1.0) + c * c - s(2.0) * c)
-            elif mode == 1:
-                peak = reflected
+            if W.mode == 0:
+                peak = W.reflected * c * c + incident * (s(1.0) + c * c - s(2.0) * c)
+            elif W.mode == 1:
+                peak = W.reflected
         out[p] = out[p] - (peak * f / mass[p]) * a
 
     return blast_acceleration
@@ -268,7 +304,7 @@ class BlastLoad:
     front_speed: float
     reflected: float
     reflection: str = "conwep"
-    _arrays: dict[Any, Any] = field(default_factory=dict, repr=False, compare=False)
+    _waves: dict[Any, Any] = field(default_factory=dict, repr=False, compare=False)
 
     def pressure(self, time: float, x: np.ndarray, cos_theta: np.ndarray) -> np.ndarray:
         """The overpressure [Pa] at points ``x`` (m, 3) with incidence ``cos_theta`` (NumPy, for checks)."""
@@ -277,17 +313,22 @@ class BlastLoad:
         peak = blast.angle_factor(cos_theta, self.peak, self.reflected, self.reflection)
         return peak * blast.friedlander(time - ta, 1.0, self.duration, self.decay)
 
-    def _device_arrays(self, t: WarpTypes, device: str) -> tuple[Any, Any, Any]:
+    def _wave(self, t: WarpTypes, device: str) -> Any:
+        """This load's ``BlastWave`` struct (:func:`wave_struct`) in types ``t`` on ``device`` (built once)."""
         key = (t.numpy, str(device))
-        if key not in self._arrays:
+        if key not in self._waves:
+            s = t.scalar
             row = np.full(self.n_particles, -1, dtype=np.int32)
             row[self.surface.index] = np.arange(len(self.surface.index), dtype=np.int32)
-            self._arrays[key] = (
-                wp.array(row, dtype=wp.int32, device=device),
-                wp.array(self.surface.normal.astype(t.numpy), dtype=t.vec3, device=device),
-                wp.array(self.surface.area_vector.astype(t.numpy), dtype=t.vec3, device=device),
-            )
-        return self._arrays[key]
+            W = wave_struct(t)()
+            W.row = wp.array(row, dtype=wp.int32, device=device)
+            W.normal0 = wp.array(self.surface.normal.astype(t.numpy), dtype=t.vec3, device=device)
+            W.area0 = wp.array(self.surface.area_vector.astype(t.numpy), dtype=t.vec3, device=device)
+            W.t0, W.x_ref, W.d = s(self.arrival_time), t.vec3(*self.reference_point), t.vec3(*self.direction)
+            W.inv_speed, W.incident, W.reflected = s(1.0 / self.front_speed), s(self.peak), s(self.reflected)
+            W.duration, W.decay, W.mode = s(self.duration), s(self.decay), _MODES[self.reflection]
+            self._waves[key] = W
+        return self._waves[key]
 
     def add_acceleration(self, state: Any, start: float, end: float, out: wp.array) -> None:
         """Add this load's body acceleration [m/s^2] to ``out`` (storage order of ``state``): the
@@ -296,13 +337,9 @@ class BlastLoad:
         ``end <= start``."""
         t = warp_types("float64" if state.x.dtype == wp.vec3d else "float32")
         s = t.scalar
-        row, normal0, area0 = self._device_arrays(t, state.x.device)
         wp.launch(blast_kernel(t), dim=state.n, device=state.x.device,
-                  inputs=[state.x0, state.F, state.mass, state.id, row, normal0, area0, s(start), s(end),
-                          s(self.arrival_time),
-                          t.vec3(*self.reference_point), t.vec3(*self.direction), s(1.0 / self.front_speed),
-                          s(self.peak), s(self.reflected), s(self.duration), s(self.decay),
-                          _MODES[self.reflection], out])  # fmt: skip
+                  inputs=[state.x0, state.F, state.mass, state.id, self._wave(t, state.x.device), s(start), s(end),
+                          out])  # fmt: skip
 
 
 def surface_acceleration(loads: list[BlastLoad], state: Any, start: float, end: float | None = None) -> wp.array:

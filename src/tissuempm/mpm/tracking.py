@@ -58,49 +58,60 @@ def log_strain(green: np.ndarray) -> np.ndarray:
 
 
 @functools.cache
+def peak_struct(t: WarpTypes) -> Any:
+    """The Warp struct ``Peaks`` of :func:`peak_kernel` for types ``t``: the flags ``strain`` and ``vm`` (1: track the
+    peak maximum principal Green strain, the peak von Mises stress), the peaks ``mps``, ``svm`` and the times
+    ``mps_t``, ``svm_t`` they were reached (a state's ``peak_*`` arrays; any array, never written, for a peak not
+    tracked). One per :class:`Tracker`, its arrays set each step (a recorded launch reads the struct's members)."""
+    s = t.scalar
+
+    @wp.struct
+    class Peaks:
+        strain: int
+        vm: int
+        mps: wp.array(dtype=s)
+        mps_t: wp.array(dtype=s)
+        svm: wp.array(dtype=s)
+        svm_t: wp.array(dtype=s)
+
+    return Peaks
+
+
+@functools.cache
 def peak_kernel(t: WarpTypes) -> Any:
-    """``track_peaks(F, stress, material, mat_rigid, time, begin, strain, vm, mps, mps_t, svm, svm_t)``:
-    raise each deformable particle's peak maximum principal Green strain (``strain`` != 0) and
-    peak von Mises stress (``vm`` != 0) and record ``time`` where a peak rises."""
-    s, mat33 = t.scalar, t.mat33
+    """``track_peaks(P, G, K, time, begin)``: raise each deformable particle's (``P``, ``G``: the solver's structs,
+    :func:`tissuempm.mpm.kernels.kernel_structs`) peak maximum principal Green strain (``K.strain`` != 0) and
+    peak von Mises stress (``K.vm`` != 0) in ``K`` (:func:`peak_struct`) and record ``time`` where a peak rises."""
+    from tissuempm.mpm.kernels import kernel_structs  # not at the top: mpm.config imports check_track from here
+
+    s = t.scalar
     d = wp.float64
+    A = kernel_structs(t)
+    Peaks = peak_struct(t)
 
     @kernel
-    def track_peaks(
-        F: wp.array(dtype=mat33),
-        stress: wp.array(dtype=mat33),
-        material: wp.array(dtype=wp.int32),
-        mat_rigid: wp.array(dtype=wp.int32),
-        time: s,
-        begin: int,
-        strain: int,
-        vm: int,
-        mps: wp.array(dtype=s),
-        mps_t: wp.array(dtype=s),
-        svm: wp.array(dtype=s),
-        svm_t: wp.array(dtype=s),
-    ):
+    def track_peaks(P: A.Particles, G: A.Grid, K: Peaks, time: s, begin: int):
         p = begin + wp.tid()
-        if mat_rigid[material[p]] != 0:
+        if G.mat_rigid[P.material[p]] != 0:
             return
-        if strain != 0:
-            Fd = wp.mat33d(F[p])
+        if K.strain != 0:
+            Fd = wp.mat33d(P.F[p])
             C = wp.transpose(Fd) * Fd
             Q = wp.mat33d()
             lam = wp.vec3d()
             wp.eig3(C, Q, lam)
             e1 = s(d(0.5) * (wp.max(wp.max(lam[0], lam[1]), lam[2]) - d(1.0)))
-            if e1 > mps[p]:
-                mps[p] = e1
-                mps_t[p] = time
-        if vm != 0:
-            sig = stress[p]
+            if e1 > K.mps[p]:
+                K.mps[p] = e1
+                K.mps_t[p] = time
+        if K.vm != 0:
+            sig = P.stress[p]
             pm = (sig[0, 0] + sig[1, 1] + sig[2, 2]) / s(3.0)
             dev = sig - pm * wp.identity(n=3, dtype=s)
             q = wp.sqrt(s(1.5) * wp.ddot(dev, dev))
-            if q > svm[p]:
-                svm[p] = q
-                svm_t[p] = time
+            if q > K.svm[p]:
+                K.svm[p] = q
+                K.svm_t[p] = time
 
     return track_peaks
 
@@ -116,19 +127,23 @@ class Tracker:
         self.solver = solver
         self.track = check_track(track)
         self.fields: tuple[str, ...] = tuple(f for name in TRACKED if name in self.track for f in TRACKED[name])
+        self.peaks = peak_struct(solver.t)()
+        """The kernel's ``Peaks`` struct (:func:`peak_struct`): the flags, and the last step's peak arrays."""
+        self.peaks.strain, self.peaks.vm = int("peak_strain" in self.track), int("peak_von_mises" in self.track)
 
     def tasks(self, st: Any, dt: float) -> list[Callable[[], None]]:
         """Per chunk: update the peaks of the chunk's particles at the end of the step (t + dt)."""
         sv = self.solver
         s = sv.t.scalar
         kern = sv._ready(peak_kernel(sv.t))
-        strain, vm = int("peak_strain" in self.track), int("peak_von_mises" in self.track)
-        a = st.peak_mps if strain else st.work  # placeholders (never written) for a peak not tracked
-        b = st.peak_von_mises if vm else st.work
-        outs = [a, st.peak_mps_time if strain else a, b, st.peak_von_mises_time if vm else b]
-        args = [st.F, st.stress, st.material, sv.mat_rigid, s(st.time + dt)]
+        K = self.peaks
+        a = st.peak_mps if K.strain else st.work  # placeholders (never written) for a peak not tracked
+        b = st.peak_von_mises if K.vm else st.work
+        K.mps, K.mps_t = a, st.peak_mps_time if K.strain else a
+        K.svm, K.svm_t = b, st.peak_von_mises_time if K.vm else b
+        args = [st.kernel_args, sv.grid_args, K, s(st.time + dt)]
 
         def task(c: int, b0: int, e: int) -> Callable[[], None]:
-            return lambda: sv._launch(kern, e - b0, [*args, b0, strain, vm, *outs], ("track", c))
+            return lambda: sv._launch(kern, e - b0, [*args, b0], ("track", c))
 
         return [task(c, b0, e) for c, (b0, e) in enumerate(st.chunks)]

@@ -22,14 +22,16 @@ given every particle its velocity gradient L_p and its trial deformation F_p = (
 
    (V_p^0 the particle's reference volume, per radian of revolution in an axisymmetric model,
    where it carries r_0: :mod:`tissuempm.mpm.axisymmetric`);
-2. the particle keeps its isochoric deformation and takes the cell's volume ratio (axisymmetric
-   models) or the cell's volume change of the step (3-D models, the incremental form)::
+2. the particle keeps its isochoric deformation and takes the cell's volume ratio (the total form,
+   ``anti_locking = "fbar_total"``) or the cell's volume change of the step (the incremental form,
+   ``"fbar_incremental"``)::
 
        F_p <- (Jbar / J_p)^(1/3) F_p   or   F_p <- (dJbar / dJ_p)^(1/3) F_p,
        L_p <- L_p + ln(dJbar / dJ_p) / (3 dt) I
 
    (the velocity gradient gets the cell's volumetric rate of this step, so rate-form laws, the
-   bulk viscosity and the internal work see the cell's volume change).
+   bulk viscosity and the internal work see the cell's volume change). ``"fbar"`` takes the
+   incremental form in 3-D and the total one in the meridian plane of an axisymmetric model.
 
 The law then evaluates its stress from the modified F (every law, with its history: the
 modification is upstream of the constitutive call, so failure, viscoelasticity and plasticity
@@ -38,25 +40,31 @@ average), and each cell's material volume sum V^0 J is exactly that of the stand
 mass and volume stay consistent. Rigid particles (no stress) and particles whose trial J is not
 positive (a completely failed particle may invert) take no part.
 
-**3-D models still use the incremental form**: switched to the total one, five verification tests
-failed (the colliding disks' energy, the cpgimp manufactured solution's order, the settling column's
-tip, the head's half-sine pressure gradient, the rotating shell's pressure slope); that switch is left
-to do.
-
-**Why the volume ratio and not its increment.** Averaging only the step's change dJ (the
-incremental, updated-Lagrangian form, still that of 3-D models) gives all particles of a cell
-the same *change*: a particle that arrives from another cell keeps, for good, the difference
-between its volume ratio and its new neighbours'. Its pressure K ln J then differs from theirs
-by a frozen amount that no motion relaxes, and the nodal forces it leaves are balanced by shear
-alone, a strain of about K/G times the frozen difference: at K/G = 2,600 (ballistic gelatin) a
-difference of 1e-4 is worth 0.26 of shear. In the axisymmetric gelatin shot (0.5 mm cells, 2 x 2
-particles per cell, 0.1 ms) the incremental form drove the plastic strain to the erosion limit
-out to the block's edge, r = 20 mm (2,283 particles eroded; 433 without F-bar); the total form
-erodes 413, all within r0 = 2.9 mm. A plane-strain slice of the same shot through the 3-D
-kernels: 6,030 eroded to the block's edge with the incremental form, 884 within r0 = 4.1 mm with
-the total one, 692 without F-bar (docs/mpm.md "F-bar in the meridian plane"). A particle's jump
-to its new cell's volume ratio is a volume exchange between the cell's particles (zero for the
-cell); it is kept out of L, so it reaches no rate-form term as a one-step spike.
+**The two forms, measured (docs/mpm.md "Which F-bar form").** The incremental form (the
+updated-Lagrangian F-bar) gives all particles of a cell the same *change*: a particle keeps its own
+volume history, so a pressure gradient carried through the grid by a moving body stays the
+particle's own, and the energy is consistent (the colliding elastic disks of Sulsky et al. 1994,
+kinetic plus strain energy sum V0 W(F): at most 1.005 / 1.002 of the initial at h = 0.05 / 0.025).
+Its fault: a particle that arrives from another cell keeps, for good, the difference between its
+volume ratio and its new neighbours' (any motion of the nodes changes all of a cell's ratios by
+the same factor). Its pressure K ln J then differs from theirs by a frozen amount that no motion
+relaxes, and the nodal forces it leaves are balanced by shear alone, a strain of about K/G times
+the frozen difference: at K/G = 2,600 (ballistic gelatin) a difference of 1e-4 is worth 0.26 of
+shear. A plane-strain slice of the gelatin sphere shot (0.5 mm cells, 2 x 2 x 2 particles per
+cell, 0.1 ms) erodes 6,030 particles out to the block's edge (x0 = 19.9 mm) with the incremental
+form, 884 within 4.1 mm with the total one, 692 within 4.1 mm without F-bar; the axisymmetric shot
+(0.5 mm, 2 x 2): 2,283 to the block's edge against 413 within 2.9 mm. The total form relaxes those
+differences every step, but a particle that enters a cell jumps to its volume ratio: energy is
+not conserved as particles cross cells (the disks: up to 1.32 / 1.19 of the initial energy at
+h = 0.05 / 0.025), and a pressure field is flat within a cell, which coarse grids show (a rotating
+fluid-filled cylinder at 5 cells per radius: the pressure's slope 0.857 of the closed form, 1.041 at
+10; incremental 0.989 and 0.982). Hence the choice: incremental where energy and carried pressure
+fields matter and particles do not mix (what ``"fbar"`` means in 3-D), total where material mixes at
+K/G in the thousands (penetration of gels: ``examples/gelatin_sphere.toml`` asks for it; what ``"fbar"``
+means in an axisymmetric model, whose shots run along the axis).
+A particle's jump to its new cell's volume ratio is a volume exchange between the cell's
+particles (zero for the cell); it is kept out of L, so it reaches no rate-form term as a one-step
+spike.
 
 The factor is isotropic, in the meridian plane too (the hoop stretch is scaled with the rest,
 de Souza Neto et al. 1996's axisymmetric F-bar): a scalar factor leaves the isochoric part
@@ -193,9 +201,9 @@ class CellAverage:
     def __init__(self, solver: Any):
         self.solver = solver
         t = solver.t
-        # the total average in the meridian plane; 3-D keeps the incremental one until its verification tests
-        # are re-checked with the total one (module docstring)
-        total = bool(solver.axisymmetric)
+        # "fbar": the total average in the meridian plane, the incremental one in 3-D (module docstring)
+        total = solver.anti_locking == "fbar_total" or (solver.anti_locking == "fbar" and bool(solver.axisymmetric))
+        self.form = "total" if total else "incremental"
         self.entry = wp.types.vector(3 if total else 2, t.scalar)  # (V0 J, V0 J^n[, V0])
         self.measure, self.accumulate, self.apply = fbar_kernels(t, solver.n_fields, total)
         dims = solver.model.grid.shape

@@ -224,8 +224,9 @@ class SolverSection(options.section(SolverConfig, Section, "SolverOptions", incl
 
     @model_validator(mode="after")
     def _integrator(self) -> "SolverSection":
-        if self.integrator == "implicit" and self.anti_locking == "fbar":
-            raise ValueError("anti_locking = 'fbar' is available with integrator = 'explicit' only (valid with "
+        if self.integrator == "implicit" and self.anti_locking not in (None, "none"):
+            raise ValueError(f"anti_locking = {self.anti_locking!r} is available with integrator = 'explicit' only "
+                             "(valid with "
                              "'implicit': 'none'; tissuempm.mpm.implicit.IMPLICIT_CAPABILITIES says why)")
         if self.integrator == "implicit" and self.implicit is None:
             raise ValueError("integrator = 'implicit' needs a [solver.implicit] table with at least dt (the time step)")
