@@ -15,6 +15,10 @@
 
 import importlib
 import json
+import sys
+import tempfile
+import time
+import traceback
 import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, NoReturn, cast
@@ -70,7 +74,7 @@ class _LazyGroup(TyperGroup):
 
 
 app = typer.Typer(cls=_LazyGroup, help="Soft-tissue injury simulation (MPM) and tissue material calibration.",
-                  no_args_is_help=True)  # fmt: skip
+                  no_args_is_help=True, pretty_exceptions_enable=False)  # fmt: skip
 materials_app = typer.Typer(help="Browse the tissue material library and check stress-strain responses.",
                             no_args_is_help=True)
 app.add_typer(materials_app, name="materials")
@@ -86,6 +90,28 @@ def _fail(message: str) -> NoReturn:
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:  # noqa: ANN001
     """Warnings (e.g. a skipped user library file) as one ``warning:`` line on stderr, without source lines."""
     err_console.print(f"[yellow]warning:[/] {printable(message)}", highlight=False)
+
+
+def entry() -> None:
+    """The ``tissuempm`` console script: :data:`app`, with an unexpected error (a bug, not bad input: those
+    exit 2 with a named message) reported in one line with exit status 1; its traceback goes to a file in the
+    temporary folder, named in the message, for a bug report. A run that fails this way keeps its last
+    checkpoint (the runner writes checkpoints atomically)."""
+    try:
+        app()
+    except KeyboardInterrupt:
+        err_console.print("[bold red]interrupted[/]", highlight=False)
+        sys.exit(130)
+    except Exception as exc:  # noqa: BLE001 (the last resort: no traceback reaches the terminal)
+        report = Path(tempfile.gettempdir()) / f"tissuempm-error-{time.strftime('%Y%m%d-%H%M%S')}.txt"
+        try:
+            report.write_text(f"tissuempm {__version__}\n{' '.join(sys.argv)}\n\n{traceback.format_exc()}")
+            where = f"; the traceback is in {report}"
+        except OSError:
+            where = ""
+        err_console.print(f"[bold red]internal error:[/] {printable(f'{type(exc).__name__}: {exc}')}{printable(where)} "
+                          "(a bug in tissuempm: please report it with that file)", highlight=False)
+        sys.exit(1)
 
 
 def _version(value: bool) -> None:

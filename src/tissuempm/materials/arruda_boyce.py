@@ -57,9 +57,7 @@ import numpy as np
 
 from tissuempm.materials.base import Fit, parameter
 from tissuempm.materials.cards import abaqus_D1, data_lines
-from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
-from tissuempm.materials.warp_interface import invariant_func
-from tissuempm.precision import WarpTypes
+from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic, derivative_builder
 
 SERIES: tuple[float, ...] = (1.0 / 2.0, 1.0 / 20.0, 11.0 / 1050.0, 19.0 / 7000.0, 519.0 / 673750.0)
 """C_1..C_5 of W = mu sum C_i lam_m^(2-2i) (I1b^i - 3^i) (module docstring)."""
@@ -100,13 +98,10 @@ class ArrudaBoyce(InvariantHyperelastic):
         y = np.asarray(I1, dtype=float) / self.lambda_m**2
         return self.mu * np.polynomial.polynomial.polyval(y, W1_SERIES), 0.0 * np.asarray(I2, dtype=float)
 
-    @classmethod
-    def _build_derivatives(cls, t: WarpTypes) -> Any:
-        s = t.scalar
-        P = cls.packed(t)
+    @derivative_builder
+    def _build_derivatives(s: Any, P: Any) -> Any:
         a0, a1, a2, a3, a4 = W1_SERIES
 
-        @invariant_func(t)
         def dW(I1, I2, prm):
             lm = P.lambda_m(prm)
             y = I1 / (lm * lm)
@@ -114,14 +109,11 @@ class ArrudaBoyce(InvariantHyperelastic):
 
         return dW
 
-    @classmethod
-    def _build_second_derivatives(cls, t: WarpTypes) -> Any:
+    @derivative_builder
+    def _build_second_derivatives(s: Any, P: Any) -> Any:
         """W11 = (mu / lam_m^2) sum i (i - 1) C_i y^(i-2), y = I1b / lam_m^2; W12 = W22 = 0."""
-        s = t.scalar
-        P = cls.packed(t)
         b0, b1, b2, b3 = W11_SERIES
 
-        @invariant_func(t)
         def d2W(I1, I2, prm):
             lm2 = P.lambda_m(prm) * P.lambda_m(prm)
             y = I1 / lm2

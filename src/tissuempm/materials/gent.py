@@ -38,9 +38,7 @@ import numpy as np
 import warp as wp
 
 from tissuempm.materials.base import Fit, parameter
-from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
-from tissuempm.materials.warp_interface import invariant_func
-from tissuempm.precision import WarpTypes
+from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic, derivative_builder
 
 LOCK_FLOOR = 1.0e-6
 """Smallest 1 - (I1b - 3)/Jm the Warp stress function uses (module docstring)."""
@@ -74,25 +72,18 @@ class Gent(InvariantHyperelastic):
         W1 = np.where(r > 0.0, 0.5 * self.G / np.where(r > 0.0, r, 1.0), np.inf)
         return W1, 0.0 * np.asarray(I2, dtype=float)
 
-    @classmethod
-    def _build_derivatives(cls, t: WarpTypes) -> Any:
-        s = t.scalar
-        P = cls.packed(t)
-
-        @invariant_func(t)
+    @derivative_builder
+    def _build_derivatives(s: Any, P: Any) -> Any:
         def dW(I1, I2, prm):
             r = wp.max(s(1.0) - (I1 - s(3.0)) / P.Jm(prm), s(LOCK_FLOOR))
             return s(0.5) * P.G(prm) / r, s(0.0)
 
         return dW
 
-    @classmethod
-    def _build_second_derivatives(cls, t: WarpTypes) -> Any:
+    @derivative_builder
+    def _build_second_derivatives(s: Any, P: Any) -> Any:
         """W11 = (G/2) / (Jm r^2), r = 1 - (I1b - 3)/Jm; W12 = W22 = 0."""
-        s = t.scalar
-        P = cls.packed(t)
 
-        @invariant_func(t)
         def d2W(I1, I2, prm):
             r = wp.max(s(1.0) - (I1 - s(3.0)) / P.Jm(prm), s(LOCK_FLOOR))
             return s(0.5) * P.G(prm) / (P.Jm(prm) * r * r), s(0.0), s(0.0)

@@ -9,8 +9,8 @@ energy ``U`` selected by ``volumetric``:
 * ``"log"``:    U = (K/2)(ln J)^2, p = K ln J / J   (Ionescu et al. 2006 eq. 2)
 
 A law supplies only the derivatives ``W1 = dW/dI1b`` and ``W2 = dW/dI2b``, once as
-a ``@wp.func`` (for the solver) and once in NumPy (closed forms); the chain
-rule is shared::
+a ``@wp.func`` (for the solver; :func:`derivative_builder` writes its per-precision frame) and once in
+NumPy (closed forms); the chain rule is shared::
 
     sigma = (2/J) dev[(W1 + I1b W2) Bb - W2 Bb^2] + U'(J) I.
 
@@ -34,6 +34,8 @@ and ``c : d = (1/J)(d tau - d tau - tau d)``; at F = I, c = K I (x) I + 2 G0 (I_
 """
 
 
+import functools
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -44,7 +46,7 @@ from tissuempm.materials.base import Material, ParameterError, copy_state, optio
 from tissuempm.materials.kinematics import VOLUMETRIC_FORMS as VOLUMETRIC_FORMS  # re-exported
 from tissuempm.materials.kinematics import VolumetricForm, kinematics
 from tissuempm.materials.tangent import rate_tangent
-from tissuempm.materials.warp_interface import rate_func, stress_func
+from tissuempm.materials.warp_interface import invariant_func, rate_func, stress_func
 from tissuempm.precision import WarpTypes
 
 
@@ -87,6 +89,35 @@ def incompressible_invariants(mode: str, lam: np.ndarray) -> tuple[np.ndarray, n
         I = lam**2 + 1.0 + lam**-2
         return I, I.copy()
     raise ValueError(f"mode = {mode!r}: valid are uniaxial, equibiaxial, pure_shear")
+
+
+def derivative_builder(body: Callable[[Any, Any], Callable[..., Any]]) -> Any:
+    """Decorator for an invariant law's ``_build_derivatives`` and ``_build_second_derivatives``.
+
+    The law writes ``def _build_derivatives(s, P):`` returning an untyped ``def dW(I1, I2, prm):``
+    (``s`` the scalar type of the precision, ``P = cls.packed(t)`` the law's parameter accessors); the
+    decorator makes it the classmethod ``(cls, t) -> dW`` as a ``@wp.func`` typed by
+    :func:`~tissuempm.materials.warp_interface.invariant_func`, the hook :class:`InvariantHyperelastic` calls.
+    """
+
+    def build(cls: Any, t: WarpTypes) -> Any:
+        return invariant_func(t)(body(t.scalar, cls.packed(t)))
+
+    build.__doc__ = body.__doc__
+    return classmethod(build)
+
+
+@functools.cache
+def zero_second_derivatives(t: WarpTypes) -> Any:
+    """``d2W(I1b, I2b, prm) -> (0, 0, 0)``: the second derivatives of an energy linear in the invariants
+    (one ``@wp.func`` per precision, shared by those laws)."""
+    s = t.scalar
+
+    @invariant_func(t)
+    def d2W(I1, I2, prm):
+        return s(0.0), s(0.0), s(0.0)
+
+    return d2W
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -132,13 +163,12 @@ class InvariantHyperelastic(UncoupledHyperelastic):
     def _build_derivatives(cls, t: WarpTypes) -> Any:
         """``dW(I1b, I2b, prm) -> (W1, W2)``, a ``@wp.func`` written untyped with
         ``@invariant_func(t) def dW(I1, I2, prm):`` (:func:`~tissuempm.materials.warp_interface.invariant_func`),
-        reading the law's parameters with ``cls.packed(t)``."""
+        reading the law's parameters with ``cls.packed(t)``; :func:`derivative_builder` writes that frame."""
         raise NotImplementedError
 
     @classmethod
     def _build_second_derivatives(cls, t: WarpTypes) -> Any:
-        """``d2W(I1b, I2b, prm) -> (W11, W12, W22)`` (second derivatives, for the tangent; ``@invariant_func(t)``
-        as ``dW``)."""
+        """``d2W(I1b, I2b, prm) -> (W11, W12, W22)`` (second derivatives, for the tangent; written as ``dW``)."""
         raise NotImplementedError
 
     def shear_modulus(self) -> float:
@@ -222,3 +252,12 @@ class InvariantHyperelastic(UncoupledHyperelastic):
             return tau + tv, dtau + dtv
 
         return rate_tangent(t, rate)
+
+
+@dataclass(frozen=True, kw_only=True)
+class LinearInvariantHyperelastic(InvariantHyperelastic):
+    """Base of laws whose W_iso is linear in I1b and I2b (neo-Hookean, Mooney-Rivlin): W11 = W12 = W22 = 0."""
+
+    @classmethod
+    def _build_second_derivatives(cls, t: WarpTypes) -> Any:
+        return zero_second_derivatives(t)

@@ -24,13 +24,11 @@ import numpy as np
 
 from tissuempm.materials.base import Fit, ParameterError, parameter
 from tissuempm.materials.cards import abaqus_D1, data_lines
-from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
-from tissuempm.materials.warp_interface import invariant_func
-from tissuempm.precision import WarpTypes
+from tissuempm.materials.invariant_hyperelastic import LinearInvariantHyperelastic, derivative_builder
 
 
 @dataclass(frozen=True, kw_only=True)
-class MooneyRivlin(InvariantHyperelastic):
+class MooneyRivlin(LinearInvariantHyperelastic):
     """Mooney-Rivlin law W = C10 (I1b - 3) + C01 (I2b - 3) + U(J).
 
     ``C01`` may be negative (common in fits) as long as G0 = 2 (C10 + C01) > 0.
@@ -71,23 +69,9 @@ class MooneyRivlin(InvariantHyperelastic):
     def iso_derivatives(self, I1: np.ndarray, I2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return self.C10 + 0.0 * I1, self.C01 + 0.0 * I2
 
-    @classmethod
-    def _build_derivatives(cls, t: WarpTypes) -> Any:
-        P = cls.packed(t)
-
-        @invariant_func(t)
+    @derivative_builder
+    def _build_derivatives(s: Any, P: Any) -> Any:
         def dW(I1, I2, prm):
             return P.C10(prm), P.C01(prm)
 
         return dW
-
-    @classmethod
-    def _build_second_derivatives(cls, t: WarpTypes) -> Any:
-        """W is linear in the invariants: W11 = W12 = W22 = 0."""
-        s = t.scalar
-
-        @invariant_func(t)
-        def d2W(I1, I2, prm):
-            return s(0.0), s(0.0), s(0.0)
-
-        return d2W

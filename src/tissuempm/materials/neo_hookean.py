@@ -22,13 +22,11 @@ import numpy as np
 
 from tissuempm.materials.base import Fit, parameter
 from tissuempm.materials.cards import abaqus_D1, data_lines
-from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
-from tissuempm.materials.warp_interface import invariant_func
-from tissuempm.precision import WarpTypes
+from tissuempm.materials.invariant_hyperelastic import LinearInvariantHyperelastic, derivative_builder
 
 
 @dataclass(frozen=True, kw_only=True)
-class NeoHookean(InvariantHyperelastic):
+class NeoHookean(LinearInvariantHyperelastic):
     """Neo-Hookean law W = C10 (I1b - 3) + U(J)."""
 
     kind = "neo_hookean"
@@ -50,24 +48,9 @@ class NeoHookean(InvariantHyperelastic):
     def iso_derivatives(self, I1: np.ndarray, I2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return self.C10 + 0.0 * I1, 0.0 * I2
 
-    @classmethod
-    def _build_derivatives(cls, t: WarpTypes) -> Any:
-        s = t.scalar
-        P = cls.packed(t)
-
-        @invariant_func(t)
+    @derivative_builder
+    def _build_derivatives(s: Any, P: Any) -> Any:
         def dW(I1, I2, prm):
             return P.C10(prm), s(0.0)
 
         return dW
-
-    @classmethod
-    def _build_second_derivatives(cls, t: WarpTypes) -> Any:
-        """W is linear in the invariants: W11 = W12 = W22 = 0."""
-        s = t.scalar
-
-        @invariant_func(t)
-        def d2W(I1, I2, prm):
-            return s(0.0), s(0.0), s(0.0)
-
-        return d2W

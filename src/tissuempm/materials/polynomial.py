@@ -31,15 +31,39 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import warp as wp
 
 from tissuempm.materials.base import Fit, ParameterError, parameter
 from tissuempm.materials.cards import abaqus_D1, data_lines
-from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
-from tissuempm.materials.warp_interface import invariant_func
-from tissuempm.precision import WarpTypes
+from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic, derivative_builder
 
 MAX_REDUCED_ORDER = 6
 """Largest order N of :class:`ReducedPolynomial` (Abaqus allows N <= 6)."""
+
+
+def _series_derivative(s, P):
+    """``series(x, prm, k)``: the k-th derivative (k = 1 or 2) of the reduced polynomial
+    w(x) = sum_{i=1..N} Ci0 x^i read from ``prm`` (accessors ``P``, scalar type ``s``)::
+
+        k = 1:  sum_{i >= 1} i Ci0 x^(i-1)   (W1, x = I1b - 3)
+        k = 2:  sum_{i >= 2} i (i - 1) Ci0 x^(i-2)   (W11)
+    """
+
+    @wp.func
+    def series(x: s, prm: wp.array(dtype=s), k: int):
+        w = s(0.0)
+        xi = s(1.0)  # x^(i-k)
+        order = s(k)  # i, kept as a scalar (no int -> float cast of the loop index)
+        for i in range(k - 1, P.C_count(prm)):
+            f = order
+            if k == 2:
+                f = order * (order - s(1.0))
+            w += f * P.C(prm, i) * xi
+            xi *= x
+            order += s(1.0)
+        return w
+
+    return series
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -89,44 +113,23 @@ class ReducedPolynomial(InvariantHyperelastic):
         W1 = sum(((i + 1) * c * x**i for i, c in enumerate(self.C)), np.zeros_like(x))
         return W1, 0.0 * np.asarray(I2, dtype=float)
 
-    @classmethod
-    def _build_derivatives(cls, t: WarpTypes) -> Any:
-        s = t.scalar
-        P = cls.packed(t)
+    @derivative_builder
+    def _build_derivatives(s: Any, P: Any) -> Any:
+        """W1 = sum_{i >= 1} i Ci0 (I1b - 3)^(i-1), W2 = 0."""
+        series = _series_derivative(s, P)
 
-        @invariant_func(t)
         def dW(I1, I2, prm):
-            n = P.C_count(prm)
-            x = I1 - s(3.0)
-            W1 = s(0.0)
-            xi = s(1.0)  # x^(i-1)
-            order = s(1.0)  # i, kept as a scalar (no int -> float cast of the loop index)
-            for i in range(n):
-                W1 += order * P.C(prm, i) * xi
-                xi *= x
-                order += s(1.0)
-            return W1, s(0.0)
+            return series(I1 - s(3.0), prm, 1), s(0.0)
 
         return dW
 
-    @classmethod
-    def _build_second_derivatives(cls, t: WarpTypes) -> Any:
+    @derivative_builder
+    def _build_second_derivatives(s: Any, P: Any) -> Any:
         """W11 = sum_{i >= 2} i (i - 1) Ci0 (I1b - 3)^(i-2), W12 = W22 = 0."""
-        s = t.scalar
-        P = cls.packed(t)
+        series = _series_derivative(s, P)
 
-        @invariant_func(t)
         def d2W(I1, I2, prm):
-            n = P.C_count(prm)
-            x = I1 - s(3.0)
-            W11 = s(0.0)
-            xi = s(1.0)  # x^(i-2)
-            order = s(2.0)  # i
-            for i in range(1, n):
-                W11 += order * (order - s(1.0)) * P.C(prm, i) * xi
-                xi *= x
-                order += s(1.0)
-            return W11, s(0.0), s(0.0)
+            return series(I1 - s(3.0), prm, 2), s(0.0), s(0.0)
 
         return d2W
 
@@ -186,12 +189,8 @@ class Polynomial(InvariantHyperelastic):
             self.C01 + self.C11 * x + 2.0 * self.C02 * y,
         )
 
-    @classmethod
-    def _build_derivatives(cls, t: WarpTypes) -> Any:
-        s = t.scalar
-        P = cls.packed(t)
-
-        @invariant_func(t)
+    @derivative_builder
+    def _build_derivatives(s: Any, P: Any) -> Any:
         def dW(I1, I2, prm):
             x = I1 - s(3.0)
             y = I2 - s(3.0)
@@ -201,13 +200,10 @@ class Polynomial(InvariantHyperelastic):
 
         return dW
 
-    @classmethod
-    def _build_second_derivatives(cls, t: WarpTypes) -> Any:
+    @derivative_builder
+    def _build_second_derivatives(s: Any, P: Any) -> Any:
         """W11 = 2 C20, W12 = C11, W22 = 2 C02."""
-        s = t.scalar
-        P = cls.packed(t)
 
-        @invariant_func(t)
         def d2W(I1, I2, prm):
             return s(2.0) * P.C20(prm), P.C11(prm), s(2.0) * P.C02(prm)
 

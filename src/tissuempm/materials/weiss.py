@@ -290,75 +290,21 @@ class Weiss(Material):
         return fiber
 
     @classmethod
-    def _build_parts(cls, t: WarpTypes) -> Any:
-        """``parts(F, a0, prm) -> (sigma_matrix, sigma_fiber, sigma_vol, lam)`` (Cauchy, eq. 3).
-
-        ``lam = |F a0|`` is the full fiber stretch (seed eq. 1), returned for the
-        failure criteria whatever ``fiber_kinematics`` is. Wrappers whose packed
-        vector starts with a Weiss layout (e.g. TwoSurfaceFailure) reuse it.
-        """
+    def _build_matrix_fiber(cls, t: WarpTypes) -> Any:
+        """``matrix_fiber(F, a0, prm) -> (J, Bb, J^(-1/3), sigma_matrix, sigma_fiber, lam, lam_f, T, T')``:
+        the kinematics and the matrix and fiber Cauchy stresses (eq. 3) that :meth:`_build_parts` and
+        :meth:`_build_parts_moduli` share; ``lam = |F a0|`` is the full fiber stretch and ``lam_f`` the one
+        the fiber law reads (lam J^(-1/3) for ``fiber_kinematics = "isochoric"``, lam for "full")."""
         k = kinematics(t)
         fiber = cls._build_fiber(t)
         s = t.scalar
         P = cls.packed(t)
 
         @wp.func
-        def parts(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s)):
+        def matrix_fiber(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s)):
             J = wp.determinant(F)
             Bb, r = k.isochoric_b_root(F, J)
-            eye = wp.identity(n=3, dtype=s)
             sig_m = k.invariant_cauchy(J, Bb, P.C1(prm), P.C2(prm))
-            sig_v = k.volumetric_dUdJ(J, P.volumetric(prm), P.K(prm)) * eye
-            x = F * wp.normalize(a0)
-            lam = wp.length(x)
-            a = x / lam
-            aa = wp.outer(a, a)
-            sig_f = aa
-            if P.fiber_kinematics(prm) == FIBER.ISOCHORIC:
-                T, dT = fiber(lam * r, prm)
-                sig_f = (T / J) * k.dev(aa)
-            else:
-                T, dT = fiber(lam, prm)
-                sig_f = (T / J) * aa
-            return sig_m, sig_f, sig_v, lam
-
-        return parts
-
-    @classmethod
-    def _build_parts_moduli(cls, t: WarpTypes) -> Any:
-        """``parts_moduli(F, a0, prm) -> (sigma_matrix, sigma_fiber, sigma_vol, lam, K, G, dev Bb,
-        dev Bb : dev Bb, J^(-1/3))``: the parts of :meth:`_build_parts` and the moduli of
-        :meth:`_build_moduli` at the same ``F``, from one evaluation of J, Bb, J^(-1/3), ln J and the
-        fiber law (the same expressions, so the same values as the two functions called apart). The
-        explicit stress pass needs both (the stress, and the wave speed of the next time step); the
-        deviator of Bb serves the failure layer's shear measure (C = F^T F and F F^T = J^(2/3) Bb
-        have the same eigenvalues)."""
-        k = kinematics(t)
-        fiber = cls._build_fiber(t)
-        s = t.scalar
-        P = cls.packed(t)
-
-        @wp.func
-        def parts_moduli(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s)):
-            J = wp.determinant(F)
-            Bb, r = k.isochoric_b_root(F, J)
-            eye = wp.identity(n=3, dtype=s)
-            sig_m = k.invariant_cauchy(J, Bb, P.C1(prm), P.C2(prm))
-            I1 = wp.trace(Bb)
-            Bd = k.dev(Bb)
-            dd = wp.ddot(Bd, Bd)
-            bmax = I1 / s(3.0) + wp.sqrt(s(2.0) / s(3.0) * dd)
-            Km = P.K(prm)
-            U1 = s(0.0)  # volumetric U'(J) and the bulk term of the moduli
-            Kv = s(0.0)
-            if P.volumetric(prm) == VOLUMETRIC.LOG:  # ln J once for both
-                lj = wp.log(J)
-                U1 = Km * lj / J
-                Kv = Km * (s(1.0) + s(2.0) * wp.abs(lj)) / J
-            else:  # "abaqus"
-                U1 = Km * (J - s(1.0))
-                Kv = Km * wp.max(s(2.0) * J - s(1.0), s(1.0) / J)
-            sig_v = U1 * eye
             x = F * wp.normalize(a0)
             lam = wp.length(x)
             a = x / lam
@@ -373,6 +319,63 @@ class Weiss(Material):
                 sig_f = (T / J) * k.dev(aa)
             else:
                 sig_f = (T / J) * aa
+            return J, Bb, r, sig_m, sig_f, lam, lf, T, dT
+
+        return matrix_fiber
+
+    @classmethod
+    def _build_parts(cls, t: WarpTypes) -> Any:
+        """``parts(F, a0, prm) -> (sigma_matrix, sigma_fiber, sigma_vol, lam)`` (Cauchy, eq. 3).
+
+        ``lam = |F a0|`` is the full fiber stretch (seed eq. 1), returned for the
+        failure criteria whatever ``fiber_kinematics`` is. Wrappers whose packed
+        vector starts with a Weiss layout (e.g. TwoSurfaceFailure) reuse it.
+        """
+        k = kinematics(t)
+        matrix_fiber = cls._build_matrix_fiber(t)
+        s = t.scalar
+        P = cls.packed(t)
+
+        @wp.func
+        def parts(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s)):
+            J, Bb, r, sig_m, sig_f, lam, lf, T, dT = matrix_fiber(F, a0, prm)
+            sig_v = k.volumetric_dUdJ(J, P.volumetric(prm), P.K(prm)) * wp.identity(n=3, dtype=s)
+            return sig_m, sig_f, sig_v, lam
+
+        return parts
+
+    @classmethod
+    def _build_parts_moduli(cls, t: WarpTypes) -> Any:
+        """``parts_moduli(F, a0, prm) -> (sigma_matrix, sigma_fiber, sigma_vol, lam, K, G, dev Bb,
+        dev Bb : dev Bb, J^(-1/3))``: the parts of :meth:`_build_parts` and the moduli of
+        :meth:`_build_moduli` at the same ``F``, from one evaluation of J, Bb, J^(-1/3), ln J and the
+        fiber law (the same expressions, so the same values as the two functions called apart). The
+        explicit stress pass needs both (the stress, and the wave speed of the next time step); the
+        deviator of Bb serves the failure layer's shear measure (C = F^T F and F F^T = J^(2/3) Bb
+        have the same eigenvalues)."""
+        k = kinematics(t)
+        matrix_fiber = cls._build_matrix_fiber(t)
+        s = t.scalar
+        P = cls.packed(t)
+
+        @wp.func
+        def parts_moduli(F: t.mat33, a0: t.vec3, prm: wp.array(dtype=s)):
+            J, Bb, r, sig_m, sig_f, lam, lf, T, dT = matrix_fiber(F, a0, prm)
+            I1 = wp.trace(Bb)
+            Bd = k.dev(Bb)
+            dd = wp.ddot(Bd, Bd)
+            bmax = I1 / s(3.0) + wp.sqrt(s(2.0) / s(3.0) * dd)
+            Km = P.K(prm)
+            U1 = s(0.0)  # volumetric U'(J) and the bulk term of the moduli
+            Kv = s(0.0)
+            if P.volumetric(prm) == VOLUMETRIC.LOG:  # ln J once for both
+                lj = wp.log(J)
+                U1 = Km * lj / J
+                Kv = Km * (s(1.0) + s(2.0) * wp.abs(lj)) / J
+            else:  # "abaqus"
+                U1 = Km * (J - s(1.0))
+                Kv = Km * wp.max(s(2.0) * J - s(1.0), s(1.0) / J)
+            sig_v = U1 * wp.identity(n=3, dtype=s)
             G = s(2.0) * (P.C1(prm) + P.C2(prm) * I1) * bmax / J
             G = G + s(0.75) * (lf * dT + s(2.0) * T) / J
             return sig_m, sig_f, sig_v, lam, Kv, G, Bd, dd, r

@@ -24,9 +24,7 @@ import numpy as np
 
 from tissuempm.materials.base import Fit, parameter
 from tissuempm.materials.cards import abaqus_D1, data_lines
-from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic
-from tissuempm.materials.warp_interface import invariant_func
-from tissuempm.precision import WarpTypes
+from tissuempm.materials.invariant_hyperelastic import InvariantHyperelastic, derivative_builder
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -66,25 +64,18 @@ class Yeoh(InvariantHyperelastic):
         x = I1 - 3.0
         return self.C10 + x * (2.0 * self.C20 + 3.0 * self.C30 * x), 0.0 * I2
 
-    @classmethod
-    def _build_derivatives(cls, t: WarpTypes) -> Any:
-        s = t.scalar
-        P = cls.packed(t)
-
-        @invariant_func(t)
+    @derivative_builder
+    def _build_derivatives(s: Any, P: Any) -> Any:
         def dW(I1, I2, prm):
             x = I1 - s(3.0)
             return P.C10(prm) + x * (s(2.0) * P.C20(prm) + s(3.0) * P.C30(prm) * x), s(0.0)
 
         return dW
 
-    @classmethod
-    def _build_second_derivatives(cls, t: WarpTypes) -> Any:
+    @derivative_builder
+    def _build_second_derivatives(s: Any, P: Any) -> Any:
         """W11 = 2 C20 + 6 C30 (I1b - 3), W12 = W22 = 0."""
-        s = t.scalar
-        P = cls.packed(t)
 
-        @invariant_func(t)
         def d2W(I1, I2, prm):
             return s(2.0) * P.C20(prm) + s(6.0) * P.C30(prm) * (I1 - s(3.0)), s(0.0), s(0.0)
 

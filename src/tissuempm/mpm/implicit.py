@@ -83,7 +83,7 @@ from tissuempm.mpm.errors import InstabilityError
 from tissuempm.mpm.implicit_kernels import implicit_kernels, implicit_structs
 from tissuempm.mpm.kernels import SLOT
 from tissuempm.mpm.model import Model, ParticleData
-from tissuempm.mpm.solver import ExplicitSolver
+from tissuempm.mpm.solver import ExplicitSolver, Forwarded, Integrator
 from tissuempm.mpm.state import State
 from tissuempm.options import Time, check
 from tissuempm.precision import WarpTypes
@@ -251,7 +251,7 @@ def check_implicit(model: Model, config: SolverConfig, implicit: ImplicitConfig)
                              f"(valid: {cap.valid}): {cap.reason}; {cap.remedy}")
 
 
-class ImplicitSolver:
+class ImplicitSolver(Integrator):
     """Implicit MPM integrator of a :class:`Model` (see the module docstring).
 
     The phases it shares with the explicit integrator are those of an :class:`ExplicitSolver` it
@@ -344,24 +344,12 @@ class ImplicitSolver:
     def n_nodes(self) -> int:
         return self.phases.n_nodes
 
-    @property
-    def wall_lo(self) -> Any:
+    wall_lo = Forwarded(
+        "phases",
         """Wall planes [m] of the lower grid faces (:attr:`ExplicitSolver.wall_lo`): the particle update keeps
-        positions on the grid side of them."""
-        return self.phases.wall_lo
-
-    @wall_lo.setter
-    def wall_lo(self, value: Any) -> None:
-        self.phases.wall_lo = value
-
-    @property
-    def wall_hi(self) -> Any:
-        """Wall planes [m] of the upper grid faces (:attr:`ExplicitSolver.wall_hi`)."""
-        return self.phases.wall_hi
-
-    @wall_hi.setter
-    def wall_hi(self, value: Any) -> None:
-        self.phases.wall_hi = value
+        positions on the grid side of them.""",
+    )
+    wall_hi = Forwarded("phases", """Wall planes [m] of the upper grid faces (:attr:`ExplicitSolver.wall_hi`).""")
 
     @property
     def anti_locking(self) -> str:
@@ -398,17 +386,6 @@ class ImplicitSolver:
                    newton_iterations=self.iterations, last_iterations=self.last_iterations, halved_steps=self.retries,
                    direct_fallbacks=self.direct_fallbacks)  # fmt: skip
         return out
-
-    def run(
-        self,
-        state: State,
-        t_end: float,
-        callback: Callable[[State], Any] | None = None,
-        callback_interval: float | None = None,
-        control: Control | Callable[[State], Control] | None = None,
-    ) -> State:
-        """Step until ``state.time >= t_end`` [s] (:meth:`ExplicitSolver.run`, with this solver's steps)."""
-        return ExplicitSolver.run_steps(self.step, state, t_end, callback, callback_interval, control)
 
     def close(self) -> None:
         """Shut the phases' thread pool down."""

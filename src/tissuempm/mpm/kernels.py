@@ -119,6 +119,8 @@ def transfer_kernels(t: WarpTypes, shape: str, n_fields: int = 1, axisymmetric: 
         grid=lambda flags, mode: _grid(t, flags, mode, NF),
         g2p=lambda flags: _g2p(t, shape, flags, NF, AX),
         reaction=_reaction(t, shape, NF),
+        spin_scatter=_spin_scatter(t, shape, NF),
+        spin=_spin(t, NF),
         rigid_speed=_rigid_speed(t),
         NP=STENCIL[shape],
     )
@@ -284,7 +286,10 @@ def kernel_structs(t: WarpTypes) -> SimpleNamespace:
         removal classification's (:mod:`tissuempm.mpm.removal`).
     ``Grid``
         The solver's grid (geometry, wall planes), nodal records ``g_*``, chunk buffers ``b_*`` (n_chunks, records),
-        rigid-material and grid-face tables: one per solver.
+        rigid-material and grid-face tables: one per solver. The rotation records ``b_xp`` (the deforming
+        particles' centres) and ``b_w`` (the constraint's spin) are scattered and read only in a step in
+        which a rigid material turns (:func:`_spin_scatter`, :func:`_spin`; one entry per chunk until the
+        first such step).
     ``Step``
         The step's scalars and inputs (time step, gravity, body acceleration, the stress the FORCE scatter
         takes): one per solver, its members set by each phase before its parallel section.
@@ -352,6 +357,8 @@ def kernel_structs(t: WarpTypes) -> SimpleNamespace:
         b_f: wp.array2d(dtype=vec4)
         b_c: wp.array2d(dtype=vec4)
         b_x: wp.array2d(dtype=vec4)
+        b_xp: wp.array2d(dtype=vec4)
+        b_w: wp.array2d(dtype=vec4)
 
     @wp.struct
     class Step:
@@ -371,6 +378,8 @@ def kernel_structs(t: WarpTypes) -> SimpleNamespace:
         b_f: wp.array(dtype=vec4)
         b_c: wp.array(dtype=vec4)
         b_x: wp.array(dtype=vec4)
+        b_xp: wp.array(dtype=vec4)
+        b_w: wp.array(dtype=vec4)
 
     return SimpleNamespace(Particles=Particles, Grid=Grid, Step=Step, Rows=Rows)
 
@@ -481,6 +490,43 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
                         B.b_f[n] += wz[k] * fa + dz[k] * fb
 
     return p2g
+
+
+@functools.cache
+def _spin_scatter(t: WarpTypes, shape: str, NF: int) -> Any:
+    A = kernel_structs(t)
+    s = t.scalar
+    h = _helpers(t, shape, NF)
+    stencil, field_of, NP = h.stencil, h.field_of, h.NP
+    pack = vec4_helpers(t).pack
+
+    @transfer_kernel
+    def spin_scatter(P: A.Particles, G: A.Grid, B: A.Rows, begin: int):
+        """The rotation records of FLIP at a rotating wall (:func:`_spin`), scattered after the MASS P2G of a
+        step in which a rigid material turns, with its stencils (at ``P.xs``): (m omega, 0)_i = sum S m_r
+        omega_r of the rigid particles into ``B.b_w``, (m x, 0)_i = sum S m_p (x_p - origin) of the others
+        (x_p = ``P.x``) into ``B.b_xp``. A pass of its own, so that the P2G kernel, and every step without
+        rotation, stays as it was."""
+        p = begin + wp.tid()
+        nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(P.xs[p], p, P.size, P.F, G.origin, G.inv_h, G.dims,
+                                                     field_of(P.field, p))  # fmt: skip
+        m = P.mass[p]
+        mat = P.material[p]
+        rigid = G.mat_rigid[mat] != 0
+        rec = pack(m * (P.x[p] - G.origin), s(0.0))
+        if rigid:
+            rec = pack(m * G.rigid_vel[G.rigid_vel.shape[0] // 3 + mat], s(0.0))  # omega: the table's second block
+        for i in range(NP):
+            for j in range(NP):
+                wij = wx[i] * wy[j]
+                for k in range(NP):
+                    n = nb + i * sx + j * sy + k * NF
+                    if rigid:
+                        B.b_w[n] += (wij * wz[k]) * rec
+                    else:
+                        B.b_xp[n] += (wij * wz[k]) * rec
+
+    return spin_scatter
 
 
 @functools.cache
@@ -610,6 +656,67 @@ def _grid(t: WarpTypes, flags: int, mode: int, NF: int) -> Any:
             G.g_vnew[n] = pack(vv, s(0.0))
 
     return grid
+
+
+@functools.cache
+def _spin(t: WarpTypes, NF: int) -> Any:
+    A = kernel_structs(t)
+    s, vec3, vec4 = t.scalar, t.vec3, t.vec4
+    v4 = vec4_helpers(t)
+    pack, head = v4.pack, v4.head
+    apply_bc = boundary_function(t)
+
+    @kernel
+    def spin(start: int, P: A.Particles, G: A.Grid, S: A.Step):
+        """FLIP at a rotating wall: after an UPDATE grid pass of a step in which a rigid material turns,
+        reduce (and zero) the rotation records ``G.b_xp`` and ``G.b_w`` (:func:`_spin_scatter`)
+        and form the FLIP increment ``G.g_vinc`` of the constrained nodes again.
+
+        At a node the deforming particles' velocity v = sum S m_p v_p / m (``G.g_mm``) is their velocity
+        at their nodal centre x_m = sum S m_p x_p / m (exactly so when they move rigidly), while a rotating
+        constraint sets ``g_vnew`` = v_c(x_i), its field at the node (:func:`_p2g`). The grid pass's
+        increment v_c(x_i) - v is then omega x (x_i - x_m) for material that turns with the wall, added to
+        its particles every step: the content of a cylinder in a rotating shell turned 3 % faster than the
+        shell (11 % in its outer 2 mm) at 4 mm cells. The increment takes the constraint's field at the
+        centre instead::
+
+            g_vinc = v_c(x_m) - v,   v_c(x_m) = v_c(x_i) + omega_c x (x_m - x_i),
+            x_m = sum S m_p x_p / m,  omega_c = sum S m_r omega_r / m^c
+
+        (v_c = ``G.g_c`` / m^c; m^c the constraint mass: v_c is affine in x, a mass-weighted mix of drivers
+        included, so material moving with the constraint gets no increment; the grid faces' conditions
+        as on ``g_vnew``). ``g_vnew``, and with it the PIC velocity and the gradient, keep v_c(x_i)
+        (sum S_ip v_c(x_i) is the field at the particle). The reaction ``G.g_react`` takes the momentum
+        the particles now receive, m (flip v_c(x_m) + (1 - flip) v_c(x_i) - v) per step:
+        R <- R - (flip m / dt) omega_c x (x_m - x_i) (with it the cylinder's reaction torque on the shell
+        matches the content's -dH/dt as closely as before the increment was moved, to 20-30 % during the
+        pulse; without it the torque was 3-20 times dH/dt, as it is with PIC). A separate pass, so that the
+        grid kernel, and every step without rotation, stays as it was."""
+        n = start + wp.tid()
+        xc = vec4()
+        wc = vec4()
+        for c in range(P.n_chunks):
+            if n >= P.lo[c * SLOT] and n <= P.hi[c * SLOT]:
+                xc += G.b_xp[c, n]
+                wc += G.b_w[c, n]
+                G.b_xp[c, n] = vec4()
+                G.b_w[c, n] = vec4()
+        mm = G.g_mm[n]
+        cr = G.g_c[n]
+        m = mm[3]
+        cm = cr[3]
+        if cm > s(0.0) and m > S.min_mass:
+            inv_m = s(1.0) / m
+            ijk = node_indices(n // NF, G.dims)
+            xd = inv_m * head(xc) - G.h * vec3(s(ijk[0]), s(ijk[1]), s(ijk[2]))  # x_m - x_i
+            dv = wp.cross(head(wc) / cm, xd)  # v_c(x_m) - v_c(x_i)
+            vf = head(cr) / cm + dv
+            if G.n_bc > 0:
+                vf = apply_bc(vf, ijk, G.dims, G.bc_kind, G.bc_vel)
+            G.g_vinc[n] = pack(vf - inv_m * head(mm), s(0.0))
+            G.g_react[n] = G.g_react[n] - pack((S.flip * m / S.dt) * dv, s(0.0))
+
+    return spin
 
 
 @functools.cache

@@ -63,7 +63,63 @@ _FACES = {("lower", a): 2 * a for a in range(3)} | {("upper", a): 2 * a + 1 for 
 _BC_CODE = {"fixed": 1, "slip": 2, "velocity": 3}
 
 
-class ExplicitSolver:
+class Forwarded:
+    """Descriptor: an attribute that reads and writes the attribute of the same name of the object held in
+    ``holder`` (``solver.wall_lo`` is ``solver.grid_args.wall_lo``), documented by ``doc``."""
+
+    def __init__(self, holder: str, doc: str) -> None:
+        self.holder = holder
+        self.__doc__ = doc
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+
+    def __get__(self, obj: object, owner: type | None = None) -> Any:
+        return self if obj is None else getattr(getattr(obj, self.holder), self.name)
+
+    def __set__(self, obj: object, value: Any) -> None:
+        setattr(getattr(obj, self.holder), self.name, value)
+
+
+class Integrator:
+    """Base of the time integrators (:class:`ExplicitSolver`, :class:`~tissuempm.mpm.implicit.ImplicitSolver`):
+    each supplies ``step(state, dt, control)``; :meth:`run` is the run loop they share."""
+
+    def step(self, state: State, dt: float | None = None, control: Control | None = None) -> float:
+        """Advance ``state`` in place by one step of ``dt`` [s] (the integrator's own if None); returns the step."""
+        raise NotImplementedError
+
+    def run(
+        self,
+        state: State,
+        t_end: float,
+        callback: Callable[[State], Any] | None = None,
+        callback_interval: float | None = None,
+        control: Control | Callable[[State], Control] | None = None,
+    ) -> State:
+        """Step until ``state.time >= t_end`` [s] (the last step is not shortened, so a run
+        split into pieces takes the same steps as one run).
+
+        ``callback(state)`` is called after every step when ``callback_interval`` is None,
+        else each time the clock passes a multiple of ``callback_interval`` [s].
+        ``control`` may be a :class:`Control` or a function of the state returning one.
+        """
+        nxt = None
+        if callback_interval is not None:
+            nxt = (math.floor(state.time / callback_interval + 1e-9) + 1) * callback_interval
+        while state.time < t_end:
+            ctl = control(state) if callable(control) else control
+            self.step(state, None, ctl)
+            if callback is not None:
+                if nxt is None:
+                    callback(state)
+                elif state.time >= nxt * (1 - 1e-12):
+                    callback(state)
+                    nxt = (math.floor(state.time / callback_interval + 1e-9) + 1) * callback_interval  # type: ignore[operator]
+        return state
+
+
+class ExplicitSolver(Integrator):
     """Explicit MPM integrator of a :class:`Model` with options :class:`SolverConfig`.
 
     Example
@@ -170,6 +226,8 @@ class ExplicitSolver:
         self.g_mm, self.g_c = z(v4), z(v4)
         # position records of the contact gap (tissuempm.mpm.contact; a placeholder with one field)
         self.g_x = z(v4) if self.n_fields > 1 else wp.zeros(1, dtype=v4, device=self.device)
+        self._turns = False  # a rigid material has turned: the chunk buffers hold the rotation records (_set_turning)
+        self._turning = False  # one turns in this step
         self.g_vinc, self.g_vnew, self.g_vgrad, self.g_react = z(v4), z(v4), z(v4), z(v4)
         self._n_buf = 0
         self._dirty = False  # chunk buffers hold data of an interrupted step
@@ -201,25 +259,16 @@ class ExplicitSolver:
         if load:
             self._ready_all([self.kern.rigid_speed, self.kern.reaction, *laws])
 
-    @property
-    def wall_lo(self) -> Any:
+    wall_lo = Forwarded(
+        "grid_args",
         """Wall planes [m] of the lower grid faces per axis (-inf where a face has no slip or fixed
         condition): G2P keeps positions on the grid side of them. Setting it (or :attr:`wall_hi`)
-        changes the kernels' grid struct."""
-        return self.grid_args.wall_lo
-
-    @wall_lo.setter
-    def wall_lo(self, value: Any) -> None:
-        self.grid_args.wall_lo = value
-
-    @property
-    def wall_hi(self) -> Any:
-        """Wall planes [m] of the upper grid faces per axis (+inf where there is no wall; see :attr:`wall_lo`)."""
-        return self.grid_args.wall_hi
-
-    @wall_hi.setter
-    def wall_hi(self, value: Any) -> None:
-        self.grid_args.wall_hi = value
+        changes the kernels' grid struct.""",
+    )
+    wall_hi = Forwarded(
+        "grid_args", """Wall planes [m] of the upper grid faces per axis (+inf where there is no wall; see
+        :attr:`wall_lo`)."""
+    )
 
     # ------------------------------------------------------------------------------ setup
     def _parameters(self, law: Material) -> wp.array:
@@ -254,21 +303,27 @@ class ExplicitSolver:
         self.b_mm, self.b_f, self.b_c = z(), z(), z()  # (m v, m), (f, 0), constraint (m v_c, m)
         # position records (m x, m) of the contact gap; one placeholder entry per chunk with one field
         self.b_x = z() if self.n_fields > 1 else wp.zeros((n_chunks, 1), dtype=self.t.vec4, device=self.device)
+        # rotation records (m x, 0) and (m omega, 0) of FLIP at a rotating wall (mpm.kernels._spin_scatter) once a
+        # rigid material has turned (_set_turning); one placeholder entry per chunk before
+        records = z if self._turns else lambda: wp.zeros((n_chunks, 1), dtype=self.t.vec4, device=self.device)
+        self.b_xp, self.b_w = records(), records()
         self._n_buf = n_chunks
         # per-chunk 1-D row views (kernels index them with the flat node index only)
-        self._rows = [[b[c] for b in (self.b_mm, self.b_f, self.b_c, self.b_x)] for c in range(n_chunks)]
+        self._rows = [[b[c] for b in (self.b_mm, self.b_f, self.b_c, self.b_x, self.b_xp, self.b_w)]
+                      for c in range(n_chunks)]
         G = self.grid_args
-        G.b_mm, G.b_f, G.b_c, G.b_x = self.b_mm, self.b_f, self.b_c, self.b_x
+        G.b_mm, G.b_f, G.b_c, G.b_x, G.b_xp, G.b_w = self.b_mm, self.b_f, self.b_c, self.b_x, self.b_xp, self.b_w
         self._row_args = []
         for rows in self._rows:
             r = self.structs.Rows()
-            r.b_mm, r.b_f, r.b_c, r.b_x = rows
+            r.b_mm, r.b_f, r.b_c, r.b_x, r.b_xp, r.b_w = rows
             self._row_args.append(r)
 
     def _buffers(self) -> tuple[wp.array, ...]:
-        """The chunk buffers: (m v, m), force and constraint records, and with several velocity
-        fields the position records of the contact gap."""
-        return (self.b_mm, self.b_f, self.b_c) + ((self.b_x,) if self.n_fields > 1 else ())
+        """The chunk buffers: (m v, m), force and constraint records, with several velocity
+        fields the position records of the contact gap, and once a rigid material has turned the rotation records."""
+        return ((self.b_mm, self.b_f, self.b_c) + ((self.b_x,) if self.n_fields > 1 else ())
+                + ((self.b_xp, self.b_w) if self._turns else ()))
 
     def _chunks(self, n: int) -> list[tuple[int, int]]:
         if not self.is_cpu:
@@ -411,6 +466,19 @@ class ExplicitSolver:
 
         self._parallel([chain(fs) for fs in zip(*phases)])
 
+    def _set_turning(self) -> None:
+        """Set ``_turning``: whether a rigid material turns in this step (omega != 0 in the rigid
+        table, which the control and the free bodies have set by now). The first such step allocates the
+        chunk buffers' rotation records (the deforming particles' nodal centres and the constraint's spin:
+        FLIP at a rotating wall, :func:`tissuempm.mpm.kernels._spin`), kept from then on."""
+        n_mat = len(self.model.materials)
+        turning = bool(np.any(self._rigid_velocity[n_mat : 2 * n_mat]))
+        if turning and not self._turns:
+            self._turns = True
+            n_buf, self._n_buf = self._n_buf, 0
+            self._ensure_buffers(n_buf)  # the chunk buffers again, now with full rotation records
+        self._turning = turning
+
     def _apply_control(self, control: Control | None) -> None:
         g = self.config.gravity if control is None or control.gravity is None else control.gravity
         self._gravity = self.t.vec3(*g)
@@ -512,6 +580,7 @@ class ExplicitSolver:
         if self._body is not None and flags & K.FORCE:
             flags |= K.BODY
         p2g = self._ready(kern.p2g(flags))
+        spin = self._ready(kern.spin_scatter) if flags & K.MASS and self._turning else None  # FLIP at a rotating wall
         window = self.is_cpu
         stress = self.reference.force_stress(st) if self.reference is not None and flags & K.FORCE else st.stress
         S = self.step_args
@@ -527,6 +596,8 @@ class ExplicitSolver:
                 if window and flags & K.MASS:
                     st.host["lo"][slot], st.host["hi"][slot] = self.n_nodes, -1  # type: ignore[index]  # set on a CPU
                 self._launch(p2g, e - b, [*args, self._row_args[c], b, slot], c)
+                if spin is not None:  # the rotation records, inside the window of the MASS scatter (same stencils)
+                    self._launch(spin, e - b, [st.kernel_args, self.grid_args, self._row_args[c], b], ("spin", c))
 
             return run
 
@@ -557,6 +628,9 @@ class ExplicitSolver:
         S.dt, S.gravity, S.min_mass = s(dt), self._gravity, s(st.min_node_mass)
         args = [st.kernel_args, self.grid_args, S]
         self._split(start, stop, lambda a, b: self._launch(kernel, b - a, [a, *args], a))
+        if mode == K.UPDATE and self._turning:  # FLIP at a rotating wall: the constrained increments
+            spin = self._ready(self.kern.spin)
+            self._split(start, stop, lambda a, b: self._launch(spin, b - a, [a, *args], ("spin", a)))
         if self.n_fields > 1:
             self._contact(mode, dt, start, stop)
 
@@ -632,6 +706,8 @@ class ExplicitSolver:
             modes = sorted({m for _, m in grids})
             out += [contact_kernel(self.t, mode, self.n_fields, self.config.shape, self.axisymmetric) for mode in modes]
         out += [kern.reaction, kern.rigid_speed] + [k for _, _, mk, _ in self.laws for k in (mk.stress, mk.speed)]
+        if any(isinstance(m, RigidMaterial) and (not m.free or m.rotates) for m in self.model.materials):
+            out += [kern.spin_scatter, kern.spin]  # a driver may turn (Control.rigid_rotation), or a free body does
         out += self.volumetric.kernels() if self.volumetric is not None else []
         return out + (self.free.kernels() if self.free is not None else [])
 
@@ -782,6 +858,7 @@ class ExplicitSolver:
         st = state
         cfg = self.config
         self._apply_control(control)
+        self._set_turning()
         if dt is None:
             dt = self.stable_dt(st)
         self._fill(st, "bad", st.n)
@@ -823,47 +900,6 @@ class ExplicitSolver:
         if cfg.sort_interval and st.step % cfg.sort_interval == 0:
             self._sort(st)
         return dt
-
-    def run(
-        self,
-        state: State,
-        t_end: float,
-        callback: Callable[[State], Any] | None = None,
-        callback_interval: float | None = None,
-        control: Control | Callable[[State], Control] | None = None,
-    ) -> State:
-        """Step until ``state.time >= t_end`` [s] (the last step is not shortened, so a run
-        split into pieces takes the same steps as one run).
-
-        ``callback(state)`` is called after every step when ``callback_interval`` is None,
-        else each time the clock passes a multiple of ``callback_interval`` [s].
-        ``control`` may be a :class:`Control` or a function of the state returning one.
-        """
-        return self.run_steps(self.step, state, t_end, callback, callback_interval, control)
-
-    @staticmethod
-    def run_steps(
-        step: Callable[[State, float | None, Control | None], float],
-        state: State,
-        t_end: float,
-        callback: Callable[[State], Any] | None = None,
-        callback_interval: float | None = None,
-        control: Control | Callable[[State], Control] | None = None,
-    ) -> State:
-        """:meth:`run` with the integrator's ``step(state, dt, control)`` (the implicit solver's too)."""
-        nxt = None
-        if callback_interval is not None:
-            nxt = (math.floor(state.time / callback_interval + 1e-9) + 1) * callback_interval
-        while state.time < t_end:
-            ctl = control(state) if callable(control) else control
-            step(state, None, ctl)
-            if callback is not None:
-                if nxt is None:
-                    callback(state)
-                elif state.time >= nxt * (1 - 1e-12):
-                    callback(state)
-                    nxt = (math.floor(state.time / callback_interval + 1e-9) + 1) * callback_interval  # type: ignore[operator]
-        return state
 
     def diagnostics(self, state: State) -> dict[str, Any]:
         """Conservation and load summaries.
