@@ -18,7 +18,7 @@ import h5py
 import numpy as np
 import pytest
 
-from tissuempm.materials import NeoHookean
+from tissuempm.materials import Failure, FailureMode, NeoHookean
 from tissuempm.mpm import ExplicitSolver, Grid, GridBoundary, Model, ParticleData, SolverConfig
 from tissuempm.mpm.state import State
 from tissuempm.scenarios.overrides import apply_overrides
@@ -45,20 +45,23 @@ gelatin particles per cell, 0.1 ms. ``tissuempm run examples/gelatin_sphere_axis
 these strings (and ``'grid.cell_size="0.5 mm"'``, z to 0.5 mm, 0.0624 g for the 0.5 mm row)."""
 
 
-def _cell_of_eight(form: str, ratios: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _cell_of_eight(form: str, ratios: np.ndarray, failed: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Eight particles at rest in one cell (2 x 2 x 2 of a 1 mm cell, a grid of 3^3 cells), each with its own
-    volume ratio ``ratios`` (F = ratio^(1/3) I), a neo-Hookean law with K/G = 1000; one step of 1 ns.
+    volume ratio ``ratios`` (F = ratio^(1/3) I), a neo-Hookean law with K/G = 1000 in the failure layer (limit
+    out of reach); particle ``failed`` starts completely failed. One step of 1 ns.
     Returns (volume ratio before, after)."""
     h = 1e-3
     q = (np.arange(2) + 0.5) * h / 2 + h
     x = np.stack(np.meshgrid(q, q, q, indexing="ij"), -1).reshape(-1, 3)
     F = np.cbrt(ratios)[:, None, None] * np.eye(3)
     pd = ParticleData(x=x, volume=(h / 2) ** 3, size=h / 2, material=0)
-    model = Model(grid=Grid(origin=(0, 0, 0), cell_size=h, shape=(3, 3, 3)),
-                  materials=[NeoHookean(C10=500.0, K=1.0e6, density=1000.0)])  # fmt: skip
+    law = Failure(base=NeoHookean(C10=500.0, K=1.0e6, density=1000.0), criterion="principal_strain", limit=10.0)
+    model = Model(grid=Grid(origin=(0, 0, 0), cell_size=h, shape=(3, 3, 3)), materials=[law])
     solver = ExplicitSolver(model, SolverConfig(threads=1, anti_locking=form))  # type: ignore[arg-type]
     d = solver.initial_state(pd).to_numpy()
     d["F"] = F
+    if failed is not None:
+        d["state"][failed, law.state_layout()["failure"].start] = float(FailureMode.BOTH)
     st = State.from_numpy(solver, d)
     solver.step(st, 1e-9)
     after = np.linalg.det(st.to_numpy()["F"])
@@ -84,6 +87,18 @@ def test_incremental_form_keeps_each_particles_volume_history():
     before, after = _cell_of_eight("fbar_incremental", ratios)
     np.testing.assert_allclose(after / after[0], before / before[0], rtol=1e-9)
     assert np.ptp(after) == pytest.approx(np.ptp(before), rel=1e-3)
+
+
+def test_a_completely_failed_particle_takes_no_part():
+    """A completely failed particle (FailureMode.BOTH: stress-free, its volume unconstrained) is left out of the
+    cell's average: the seven others take their own mean ratio, the failed one keeps its ratio (it changes only
+    by its own step, ~1e-9). Averaged in, the debris of the gelatin shot (``erosion = false``) drove its intact
+    neighbours' pressure and the internal work went negative (docs/mpm.md "Which F-bar form")."""
+    ratios = 1.0 + 1e-3 * np.linspace(-1.0, 1.0, 8)
+    before, after = _cell_of_eight("fbar_total", ratios, failed=0)
+    assert np.ptp(after[1:]) < 1e-9
+    assert after[1:].mean() == pytest.approx(before[1:].mean(), rel=1e-8)
+    assert after[0] == pytest.approx(before[0], abs=1e-8)
 
 
 def test_fbar_picks_the_models_form():

@@ -37,7 +37,9 @@ The law then evaluates its stress from the modified F (every law, with its histo
 modification is upstream of the constitutive call, so failure, viscoelasticity and plasticity
 need nothing of their own). A homogeneous deformation is unchanged (every J_p and dJ_p equals the
 average), and each cell's material volume sum V^0 J is exactly that of the standard update, so
-mass and volume stay consistent. Rigid particles (no stress) and particles whose trial J is not
+mass and volume stay consistent. Rigid particles (no stress), completely failed ones (stress-free, their
+volume unconstrained: averaged in, the debris of a wound drove its intact neighbours' pressure, and the
+gelatin shot's internal work went negative) and particles whose trial J is not
 positive (a completely failed particle may invert) take no part.
 
 **The two forms, measured (docs/mpm.md "Which F-bar form").** The incremental form (the
@@ -84,9 +86,24 @@ cost of a neo-Hookean step on one / two threads, 1.10 x / 1.11 x of a Weiss-with
 import functools
 from typing import Any
 
+import numpy as np
 import warp as wp
 
+from tissuempm.materials.base import Material
+from tissuempm.materials.failure import FailureMode
 from tissuempm.precision import WarpTypes, kernel
+
+
+def failure_slots(materials: list[Any]) -> np.ndarray:
+    """History column of each law's ``failure`` variable (-1 for laws without one and rigid materials):
+    completely failed particles (FailureMode.BOTH, stress-free) take no part in the cell averages."""
+    out = np.full(len(materials), -1, dtype=np.int32)
+    for i, m in enumerate(materials):
+        if isinstance(m, Material):
+            sl = m.state_layout().get("failure")
+            if sl is not None:
+                out[i] = sl.start
+    return out
 
 
 @functools.cache
@@ -96,6 +113,7 @@ def fbar_kernels(t: WarpTypes, n_fields: int, total: bool = True) -> Any:
     (V0 J, V0 J^n, V0) give Jbar and dJbar)."""
     s, vec3, mat33 = t.scalar, t.vec3, t.mat33
     NF = n_fields
+    FAILED = float(FailureMode.BOTH)
     TOT = bool(total)  # False: the incremental average (3-D models, see the module docstring)
     share_t = wp.types.vector(3 if TOT else 2, s)  # V0 is read by the total average only
 
@@ -108,6 +126,8 @@ def fbar_kernels(t: WarpTypes, n_fields: int, total: bool = True) -> Any:
         material: wp.array(dtype=wp.int32),
         field: wp.array(dtype=wp.int32),
         mat_rigid: wp.array(dtype=wp.int32),
+        history: wp.array2d(dtype=s),
+        failure_slot: wp.array(dtype=wp.int32),
         origin: vec3,
         inv_h: s,
         dims: wp.vec3i,
@@ -117,23 +137,28 @@ def fbar_kernels(t: WarpTypes, n_fields: int, total: bool = True) -> Any:
         share: wp.array(dtype=share_t),
         dJ: wp.array(dtype=s),
     ):
-        """Per particle ``begin + tid``: its table index ``key`` (-1 when it takes no part: rigid, or a
-        trial J or dJ = det(I + dt L) not positive), its ``share`` (V0 J, V0 J^n, V0) = (V0 J,
-        V0 J / dJ, V0) and ``dJ``."""
+        """Per particle ``begin + tid``: its table index ``key`` (-1 when it takes no part: rigid,
+        completely failed (its law's ``failure`` history column, ``failure_slot``, holds
+        FailureMode.BOTH: stress-free, its volume unconstrained), or a trial J or dJ = det(I + dt L) not
+        positive), its ``share`` (V0 J, V0 J^n, V0) = (V0 J, V0 J / dJ, V0) and ``dJ``."""
         p = begin + wp.tid()
         Fp = F[p]
         d = wp.determinant(wp.identity(n=3, dtype=s) + dt * L[p])
         J = wp.determinant(Fp)
         k = int(-1)
-        if mat_rigid[material[p]] == 0 and J > s(0.0) and d > s(0.0):
+        m = material[p]
+        failed = False
+        if failure_slot[m] >= 0:
+            failed = history[p, failure_slot[m]] >= s(FAILED)
+        if mat_rigid[m] == 0 and not failed and J > s(0.0) and d > s(0.0):
             xi = (x[p] - origin) * inv_h
             i = wp.clamp(int(wp.floor(xi[0])), 0, dims[0] - 1)
             j = wp.clamp(int(wp.floor(xi[1])), 0, dims[1] - 1)
-            m = wp.clamp(int(wp.floor(xi[2])), 0, dims[2] - 1)
+            q = wp.clamp(int(wp.floor(xi[2])), 0, dims[2] - 1)
             f = int(0)
             if wp.static(NF > 1):
                 f = int(field[p])
-            k = ((i * dims[1] + j) * dims[2] + m) * NF + f
+            k = ((i * dims[1] + j) * dims[2] + q) * NF + f
             VJ = vol0[p] * J
             if wp.static(TOT):
                 share[p] = share_t(VJ, VJ / d, vol0[p])
@@ -209,6 +234,7 @@ class CellAverage:
         dims = solver.model.grid.shape
         self.n_entries = dims[0] * dims[1] * dims[2] * solver.n_fields
         self.table = wp.zeros(self.n_entries, dtype=self.entry, device=solver.device)
+        self.failure_slot = wp.array(failure_slots(solver.model.materials), dtype=wp.int32, device=solver.device)
         self._n = -1
 
     def kernels(self) -> list[Any]:
@@ -229,8 +255,8 @@ class CellAverage:
         sv = self.solver
         self._scratch(st)
         kern = sv._ready(self.measure)
-        args = [st.x, st.F, st.L, st.volume0, st.material, st.field, sv.mat_rigid, sv.origin, sv.t.scalar(1.0 / sv.h),
-                sv.dims, sv.t.scalar(dt)]  # fmt: skip
+        args = [st.x, st.F, st.L, st.volume0, st.material, st.field, sv.mat_rigid, st.history, self.failure_slot,
+                sv.origin, sv.t.scalar(1.0 / sv.h), sv.dims, sv.t.scalar(dt)]  # fmt: skip
 
         def task(c: int, b: int, e: int) -> Any:
             return lambda: sv._launch(kern, e - b, [*args, b, self.key, self.share, self.dJ], c)
