@@ -2,6 +2,7 @@
 
 import copy
 import math
+from pathlib import Path
 
 import pytest
 
@@ -189,3 +190,18 @@ def test_binary_scenario_through_the_cli_exits_2(tmp_path):
     res = CliRunner().invoke(app, ["run", str(binary), "--out", str(tmp_path / "o")])
     assert res.exit_code == 2 and "not a text (UTF-8) file" in " ".join(res.output.split())
     assert not (tmp_path / "o").exists()
+
+
+def test_materials_are_built_once_at_validation(monkeypatch):
+    """Issue 24: ``[materials]`` is validated into the laws once (``MaterialTable.built``); ``build_materials()``
+    hands out those (frozen) objects instead of converting the tables again, and the file's tables stay as given."""
+    import tissuempm.scenarios.schema as schema
+
+    calls = []
+    convert = schema._convert_material
+    monkeypatch.setattr(schema, "_convert_material", lambda name, data: calls.append(name) or convert(name, data))
+    sc = schema.load_scenario(Path(__file__).resolve().parents[2] / "examples" / "slab_penetration.toml")
+    assert sorted(calls) == ["lead", "myocardium"]
+    first, second = sc.build_materials(), sc.build_materials()
+    assert len(calls) == 2 and all(a is b for a, b in zip(first, second, strict=True))
+    assert sc.materials["lead"] == {"library": "lead"}

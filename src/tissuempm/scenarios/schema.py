@@ -815,6 +815,21 @@ class RunSection(Section):
 # ---------------------------------------------------------------------------- materials
 
 
+class MaterialTable(dict[str, dict[str, Any]]):
+    """``[materials]`` as the file gives it (name -> table; what ``scenario.json`` and the restart hash keep),
+    with the laws it was validated into, once: :attr:`built` (name -> Material or RigidMaterial, frozen
+    dataclasses, so every :meth:`Scenario.build_materials` shares them)."""
+
+    built: dict[str, Any]
+
+    @classmethod
+    def of(cls, tables: dict[str, dict[str, Any]]) -> "MaterialTable":
+        """Validate every table (raising naming ``materials.<name>`` and the key) and keep the laws."""
+        out = cls(tables)
+        out.built = {name: _convert_material(name, data) for name, data in tables.items()}
+        return out
+
+
 def _convert_material(name: str, data: dict[str, Any]) -> Any:
     """Build the material of ``[materials.<name>]`` (a Material or RigidMaterial).
 
@@ -1076,9 +1091,7 @@ class Scenario(Section):
     @field_validator("materials")
     @classmethod
     def _materials(cls, value: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
-        for name, data in value.items():
-            _convert_material(name, data)  # raises naming the key
-        return value
+        return MaterialTable.of(value)  # raises naming the key
 
     @model_validator(mode="after")
     def _references(self) -> "Scenario":
@@ -1270,8 +1283,12 @@ class Scenario(Section):
         return assign_fields(self.body_names(), laws)  # type: ignore[arg-type]
 
     def build_materials(self) -> list[Any]:
-        """Material objects in the order of ``[materials]`` (material id = position)."""
-        return [_convert_material(name, data) for name, data in self.materials.items()]
+        """Material objects in the order of ``[materials]`` (material id = position): the laws validation
+        built (:class:`MaterialTable`), not built again."""
+        table = self.materials
+        if isinstance(table, MaterialTable) and list(table.built) == list(table):
+            return list(table.built.values())
+        return list(MaterialTable.of(table).built.values())
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], base: str | Path | None = None) -> "Scenario":
