@@ -47,19 +47,31 @@ UNSTABLE = 3
 """Classification code: not finite, or inverted while carrying stress (stops the run)."""
 
 
+def failure_slots(materials: list[Any]) -> np.ndarray:
+    """History column of each law's ``failure`` variable (FailureMode codes), -1 for laws without one and
+    rigid materials (the erosion test below and the F-bar average, :mod:`tissuempm.mpm.volumetric`, read it)."""
+    out = np.full(len(materials), -1, dtype=np.int32)
+    for i, m in enumerate(materials):
+        if isinstance(m, Material):
+            sl = m.state_layout().get("failure")
+            if sl is not None:
+                out[i] = sl.start
+    return out
+
+
 def erosion_slots(materials: list[Any]) -> np.ndarray:
     """History column of the ``failure`` variable of each eroding law, -1 for the other materials.
 
     A law erodes when ``erodes()`` returns True (``Material.erodes``, False by default); it must
     then declare a ``failure`` history variable (ValueError naming the material otherwise)."""
+    slots = failure_slots(materials)
     out = np.full(len(materials), -1, dtype=np.int32)
     for i, m in enumerate(materials):
         if isinstance(m, Material) and getattr(m, "erodes", lambda: False)():
-            sl = m.state_layout().get("failure")
-            if sl is None:
+            if slots[i] < 0:
                 raise ValueError(f"material {i} ({m.kind}) erodes failed particles but has no 'failure' "
                                  "history variable")
-            out[i] = sl.start
+            out[i] = slots[i]
     return out
 
 

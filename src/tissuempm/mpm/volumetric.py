@@ -86,24 +86,11 @@ cost of a neo-Hookean step on one / two threads, 1.10 x / 1.11 x of a Weiss-with
 import functools
 from typing import Any
 
-import numpy as np
 import warp as wp
 
-from tissuempm.materials.base import Material
 from tissuempm.materials.failure import FailureMode
+from tissuempm.mpm.removal import failure_slots
 from tissuempm.precision import WarpTypes, kernel
-
-
-def failure_slots(materials: list[Any]) -> np.ndarray:
-    """History column of each law's ``failure`` variable (-1 for laws without one and rigid materials):
-    completely failed particles (FailureMode.BOTH, stress-free) take no part in the cell averages."""
-    out = np.full(len(materials), -1, dtype=np.int32)
-    for i, m in enumerate(materials):
-        if isinstance(m, Material):
-            sl = m.state_layout().get("failure")
-            if sl is not None:
-                out[i] = sl.start
-    return out
 
 
 @functools.cache
