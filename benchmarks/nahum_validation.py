@@ -1,7 +1,8 @@
-"""Nahum, Smith & Ward (1977) experiment 37 against a run of examples/validation/nahum1977.toml.
+"""Nahum, Smith & Ward (1977) experiment 37 against a run of examples/validation/nahum1977.toml
+(the padded impactor) or nahum1977_force.toml (the force pulse prescribed on the scalp).
 
-Reads the run's ``history.csv`` (the impactor's reaction and the four probes), ``brain/brain.json``
-(written by ``tissuempm brain RUN``) when present, and the published numbers of
+Reads the run's ``history.csv`` (the impactor's reaction, or the applied surface force, and the four
+probes), ``brain/brain.json`` (written by ``tissuempm brain RUN``) when present, and the published numbers of
 ``examples/data/nahum1977_exp37.csv``; prints a Markdown table (published vs measured), writes
 ``RUN/nahum_validation.json`` and the figure ``docs/figures/nahum1977_exp37.png`` (or ``--figure``).
 
@@ -9,12 +10,15 @@ Reads the run's ``history.csv`` (the impactor's reaction and the four probes), `
     tissuempm run examples/validation/nahum1977.toml --out runs/nahum1977
     tissuempm brain runs/nahum1977
     python benchmarks/nahum_validation.py runs/nahum1977
+    python benchmarks/nahum_validation.py runs/nahum1977_force --figure docs/figures/nahum1977_exp37_force.png
 
 Definitions (docs/validation.md):
 
 * impact force ``F(t) = -2 R(t) . d`` with ``R`` the reaction on the impactor (``reaction_impactor_*``,
   the force the pad exerts on it) and ``d`` the impactor's unit direction of travel; x2 because the
-  model holds half the head (x = 0 symmetry plane).
+  model holds half the head (x = 0 symmetry plane). A run without an impactor reaction (a prescribed
+  ``[[surface_force]]``) reports ``F(t) = 2 sum_k f_k(t) . d_k`` instead, ``f_k`` the force the k-th
+  surface force applies (``surface_force_<k>_*``) and ``d_k`` its unit direction (``d`` = ``d_0``).
 * pulse duration: the time between the first and the last sample with ``F >= 0.05 max F`` (5 % of the
   peak, so that the grid-contact precursor before the pad closes its gap is not counted); ``None``
   when the force is still above that at the end of the run.
@@ -78,20 +82,36 @@ def impact_direction(scenario: dict) -> np.ndarray:
     raise SystemExit("the run has no body named 'impactor'")
 
 
+def impact_force(hist: dict[str, np.ndarray], scenario: dict,
+                 symmetry_factor: float = 2.0) -> tuple[np.ndarray, np.ndarray, str]:
+    """(F(t) [N], the unit direction d, the source) of a run: from the impactor's reaction when the
+    history has one, else from the applied surface forces (module docstring)."""
+    if "reaction_impactor_x" in hist:
+        d = impact_direction(scenario)
+        reaction = np.stack([hist[f"reaction_impactor_{c}"] for c in "xyz"], axis=1)
+        return -symmetry_factor * reaction @ d, d, "impactor reaction"
+    loads = scenario.get("surface_force", [])
+    if not loads or "surface_force_0_x" not in hist:
+        raise SystemExit("the run has neither an impactor reaction (reaction_impactor_*) nor an applied surface "
+                         "force (surface_force_0_*) in its history.csv")  # fmt: skip
+    dirs = [np.asarray(f["direction"], dtype=float) / np.linalg.norm(f["direction"]) for f in loads]
+    force = sum(np.stack([hist[f"surface_force_{k}_{c}"] for c in "xyz"], axis=1) @ dk for k, dk in enumerate(dirs))
+    return symmetry_factor * np.asarray(force), dirs[0], "prescribed surface force"
+
+
 def analyse(run: Path, cutoff: float = 1000.0, symmetry_factor: float = 2.0) -> dict:
     """Measured peaks and timings of a run, and the published ones beside them."""
     hist = read_history(run)
     t = hist["time"]
     sc = json.loads((run / "scenario.json").read_text())
-    d = impact_direction(sc)
-    reaction = np.stack([hist[f"reaction_impactor_{c}"] for c in "xyz"], axis=1)
-    force = -symmetry_factor * reaction @ d
+    force, d, source = impact_force(hist, sc, symmetry_factor)
     force_f = lowpass(t, force, cutoff)
     k = int(np.argmax(force_f))
     above = np.nonzero(force_f >= 0.05 * force_f[k])[0]
     duration = float(t[above[-1]] - t[above[0]]) if above[-1] < len(t) - 1 else None
     window = t <= t[k]
     out = {"run": str(run), "end_time": float(t[-1]), "cutoff_hz": cutoff, "direction": d.tolist(),
+           "force_source": source,
            "force": {"peak": float(force_f[k]), "time_of_peak": float(t[k]), "peak_raw": float(force.max()),
                      "onset": float(t[above[0]]), "duration": duration,
                      "window": [0.0, float(t[k])]},
@@ -160,11 +180,10 @@ def figure(run: Path, res: dict, path: Path, cutoff: float) -> None:
 
     hist = read_history(run)
     t = hist["time"] * 1e3
-    d = np.asarray(res["direction"])
-    force = -2.0 * np.stack([hist[f"reaction_impactor_{c}"] for c in "xyz"], axis=1) @ d
+    force, _, source = impact_force(hist, json.loads((run / "scenario.json").read_text()))
     pub = res["published"]
     fig, (ax0, ax1) = plt.subplots(2, 1, figsize=(7.5, 7.0), sharex=True)
-    ax0.plot(t, force / 1e3, color="0.75", lw=0.8, label="model, raw")
+    ax0.plot(t, force / 1e3, color="0.75", lw=0.8, label=f"model, raw ({source})")
     ax0.plot(t, lowpass(hist["time"], force, cutoff) / 1e3, color="k", label=f"model, {cutoff:.0f} Hz low-pass")
     ax0.axhline(pub["peak_impact_force"] / 1e3, color="tab:red", ls="--", label="Nahum 1977 exp. 37: peak 7.9 kN")
     ax0.axvspan(0, pub["pulse_duration"] * 1e3, color="tab:red", alpha=0.07, label="published pulse, about 6 ms")
@@ -182,7 +201,8 @@ def figure(run: Path, res: dict, path: Path, cutoff: float) -> None:
     ax1.set_xlabel("time [ms]")
     ax1.set_ylabel("pressure [kPa]")
     ax1.legend(fontsize=7, ncol=2, loc="lower left")
-    fig.suptitle("Nahum et al. 1977 exp. 37 vs tissuempm (ICBM head, 8 mm cells, half model)", fontsize=10)
+    load = "padded impactor" if source == "impactor reaction" else "force pulse on the scalp"
+    fig.suptitle(f"Nahum et al. 1977 exp. 37 vs tissuempm (ICBM head, 8 mm cells, half model, {load})", fontsize=10)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=130)
@@ -191,7 +211,7 @@ def figure(run: Path, res: dict, path: Path, cutoff: float) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("run", type=Path, help="run folder of examples/validation/nahum1977.toml")
+    ap.add_argument("run", type=Path, help="run folder of examples/validation/nahum1977.toml or nahum1977_force.toml")
     ap.add_argument("--cutoff", type=float, default=1000.0, help="low-pass cut-off [Hz] (default 1000)")
     ap.add_argument("--figure", type=Path, default=FIGURE, help=f"figure path (default {FIGURE.relative_to(ROOT)})")
     args = ap.parse_args()

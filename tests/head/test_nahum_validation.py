@@ -1,6 +1,7 @@
-"""The Nahum et al. 1977 validation (docs/validation.md): the scenario validates and builds with a head
-of `tissuempm head build` (6 mm here, generated in tmp_path; the validation itself uses 2 mm), and the
-script's force and pressure measures against signals with known peaks. No long run in CI."""
+"""The Nahum et al. 1977 validation (docs/validation.md): the scenarios (the padded impactor and the
+prescribed force pulse) validate and build with a head of `tissuempm head build` (6 mm here, generated
+in tmp_path; the validation itself uses 2 mm), and the script's force and pressure measures against
+signals with known peaks. No long run in CI."""
 
 import csv
 import importlib.util
@@ -17,6 +18,7 @@ from tissuempm.cli import app
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "examples" / "validation" / "nahum1977.toml"
+FORCE_SCENARIO = ROOT / "examples" / "validation" / "nahum1977_force.toml"
 spec = importlib.util.spec_from_file_location("nahum_validation", ROOT / "benchmarks" / "nahum_validation.py")
 nv = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(nv)
@@ -75,6 +77,94 @@ def test_validation_scenario_builds_with_a_built_head(head_6mm, tmp_path):
         assert np.count_nonzero(near & np.isin(prob.body, ids)) >= 3, probe.name
 
 
+def _exit_point(sc, prob) -> np.ndarray:
+    """Where the line through the brain's centroid (put on the mid-sagittal plane: the half model's lies
+    beside it) along -d, d = (0, -1, -1)/sqrt(2), leaves the scalp: the outermost exposed scalp particle
+    within 4 mm (one particle spacing) of the line [m]."""
+    from tissuempm.scenarios.build import loaded_surface
+
+    names = [b.name for b in sc.bodies]
+    x = prob.particles.x
+    brain = np.isin(prob.body, [names.index(n) for n in ("cerebrum_grey_matter", "cerebrum_white_matter",
+                                                         "cerebellum_grey_matter", "cerebellum_white_matter",
+                                                         "brain_stem")])  # fmt: skip
+    v = prob.particles.volume[brain]
+    c = (x[brain] * v[:, None]).sum(axis=0) / v.sum()
+    c[0] = 0.0
+    scalp = x[loaded_surface(sc, prob.particles, prob.body, ["scalp"], "scalp").index]
+    out = np.array([0.0, 1.0, 1.0]) / math.sqrt(2)
+    r = scalp - c
+    along = r @ out
+    on_line = np.linalg.norm(r - along[:, None] * out, axis=1) < 4e-3
+    return scalp[on_line][np.argmax(along[on_line])]
+
+
+@pytest.mark.skipif(not (ROOT / "examples" / "validation" / "head.nii.gz").exists(),
+                    reason="the 2 mm head is not built (tissuempm head build --resolution '2 mm' --out "
+                           "examples/validation/head.nii.gz)")  # fmt: skip
+def test_force_patch_centre_is_where_the_blow_leaves_the_scalp_of_the_2mm_head():
+    """With the validation's own 2 mm head (when built): the blow's line through the brain's centroid
+    leaves the scalp within one particle spacing (4 mm) of the patch's centre (0, 43, 75) mm (measured:
+    the particle at (2, 42, 74) mm, 2.4 mm away); the patch holds about 100 particles (measured 98,
+    A_proj 1822 mm^2)."""
+    from tissuempm.scenarios.build import build
+    from tissuempm.scenarios.schema import load_scenario
+
+    sc = load_scenario(FORCE_SCENARIO)
+    prob = build(sc)
+    (sf,) = sc.surface_forces
+    assert np.linalg.norm(_exit_point(sc, prob) - np.asarray(sf.centre)) < 4e-3
+    (load,) = prob.loading.surface_forces
+    assert 50 < len(load.surface.index) < 200
+
+
+def test_force_scenario_builds_with_a_built_head(head_6mm, tmp_path):
+    """nahum1977_force.toml: the same head, grid, solver, symmetry face, probes and [head] as
+    nahum1977.toml without pad or impactor; one surface force of half the published peak (half model)
+    over the published duration, as a half-sine, along (0, -1, -1)/sqrt(2), on the scalp round
+    (0, 43, 75) mm, covering the point where the blow's line through the brain's centroid leaves the
+    scalp (the 6 mm head's: 15.7 mm from the centre, its layers being thicker; the 2 mm head's: test
+    above). The patch's projected area is the impactor face's half disc pi (35 mm)^2 / 2 within 25 %
+    (a sphere of 35 mm round a point of the curved scalp; measured on the 2 mm head: 1822 mm^2, -5 %),
+    and the net force along d at the peak is the peak to round-off."""
+    from tissuempm.mpm import ExplicitSolver
+    from tissuempm.mpm.surface_loads import surface_acceleration
+    from tissuempm.scenarios.build import build
+    from tissuempm.scenarios.schema import load_scenario
+
+    text = FORCE_SCENARIO.read_text().replace('upper = ["96 mm",', 'upper = ["112 mm",')
+    (tmp_path / FORCE_SCENARIO.name).write_text(text)
+    (tmp_path / SCENARIO.name).write_text(SCENARIO.read_text().replace('upper = ["96 mm",', 'upper = ["112 mm",'))
+    for name in ("head.nii.gz", "head.labels.toml"):
+        shutil.copy(head_6mm / name, tmp_path)
+    sc = load_scenario(tmp_path / FORCE_SCENARIO.name)
+    old = load_scenario(tmp_path / SCENARIO.name)
+    assert sc.grid == old.grid and sc.boundaries == old.boundaries and sc.probes == old.probes and sc.head == old.head
+    assert sc.solver == old.solver
+    names = [b.name for b in sc.bodies]
+    assert len(names) == 11 and "pad" not in names and "impactor" not in names
+    assert sc.run.end_time == pytest.approx(8e-3)
+    ref = nv.reference()
+    (sf,) = sc.surface_forces
+    d = np.array([0.0, -1.0, -1.0]) / math.sqrt(2)
+    assert 2 * sf.peak == pytest.approx(ref["peak_impact_force"]) and sf.duration == pytest.approx(ref["pulse_duration"])
+    assert sf.pulse == "half_sine" and sf.start == 0.0 and sf.bodies == ["scalp"]
+    assert np.asarray(sf.direction) / np.linalg.norm(sf.direction) == pytest.approx(d, abs=1e-8)
+    assert sf.radius == pytest.approx(0.035)
+    prob = build(sc)
+    assert len(np.unique(prob.body)) == len(sc.bodies)
+    (load,) = prob.loading.surface_forces
+    assert load.projected_area == pytest.approx(math.pi * 0.035**2 / 2, rel=0.25)
+    # the patch covers the point where the blow's line through the brain's centroid leaves the scalp
+    # (the 6 mm head's layers are thicker than the 2 mm one's: that point lies 16 mm further out here)
+    assert np.linalg.norm(_exit_point(sc, prob) - np.asarray(sf.centre)) < 0.5 * sf.radius
+    solver = ExplicitSolver(prob.model, prob.config)
+    st = solver.initial_state(prob.particles)
+    f = (st.mass.numpy()[:, None] * surface_acceleration([load], st, 3e-3).numpy()).sum(axis=0)
+    assert f @ d == pytest.approx(sf.peak, rel=1e-9)
+    solver.close()
+
+
 @pytest.mark.parametrize("name", ["head_impact_icbm.toml", "head_blast_icbm.toml"])
 def test_icbm_examples_build_with_a_built_head(head_6mm, name):
     """examples/head/head_impact_icbm.toml and head_blast_icbm.toml seed every body of a built head
@@ -104,6 +194,28 @@ def _fake_run(tmp_path: Path, t: np.ndarray, force: np.ndarray, pressures: dict[
         w.writerow(cols)
         w.writerows(np.column_stack(list(cols.values())))
     return tmp_path
+
+
+def test_script_reads_the_applied_surface_force(tmp_path):
+    """A run without an impactor (nahum1977_force.toml): the script takes F = 2 f . d from the
+    surface_force_0_* columns (the half model's applied force, along the load's direction d): a 7.9 kN,
+    6 ms half-sine gives back its peak, as from the impactor's reaction."""
+    T, dt = 6e-3, 20e-6
+    t = np.arange(0.0, 8e-3, dt)
+    F = 7900 * np.where(t < T, np.sin(np.pi * t / T), 0.0)
+    d = np.array([0.0, -1.0, -1.0]) / math.sqrt(2)
+    (tmp_path / "scenario.json").write_text(json.dumps({"body": [{"name": "scalp", "velocity": [0, 0, 0]}],
+                                                        "surface_force": [{"direction": [0, -1, -1]}]}))
+    applied = 0.5 * F[:, None] * d[None, :] + 0.1 * F[:, None] * np.array([0.0, 1.0, -1.0]) / math.sqrt(2)
+    cols = {"time": t, **{f"surface_force_0_{c}": applied[:, k] for k, c in enumerate("xyz")}}
+    with open(tmp_path / "history.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(cols)
+        w.writerows(np.column_stack(list(cols.values())))
+    res = nv.analyse(tmp_path)
+    assert res["force_source"] == "prescribed surface force"
+    assert res["direction"] == pytest.approx(d.tolist())
+    assert res["force"]["peak"] == pytest.approx(7900, rel=2e-3) and res["force"]["peak_raw"] == pytest.approx(7900)
 
 
 def test_script_measures_known_pulses(tmp_path):

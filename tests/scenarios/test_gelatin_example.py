@@ -92,6 +92,17 @@ def test_axisymmetric_scenario_errors_are_named():
     data["boundary"] = [*data["boundary"], {"axis": "z", "side": "lower", "kind": "fixed"}]
     with pytest.raises((ScenarioError, ValueError), match="symmetry"):
         Scenario.from_dict(data)
+    # surface loads: their areas are a 3-D lattice's, not per radian of the meridian plane
+    loads = {
+        "blast": {"bodies": ["block"], "peak": "100 kPa", "duration": "1 ms", "direction": [0, 1, 0]},
+        "surface_force": {"bodies": ["block"], "centre": [0, 0, 0], "radius": "5 mm", "direction": [0, 1, 0],
+                          "peak": "10 N", "pulse": "half_sine", "duration": "0.2 ms"},
+    }
+    for table, entry in loads.items():
+        data = copy.deepcopy(base)
+        data[table] = [entry]
+        with pytest.raises((ScenarioError, ValueError), match=rf"{table}\[0\].*axisymmetric grid"):
+            Scenario.from_dict(data)
 
 
 def test_wound_analysis_refuses_an_axisymmetric_run(tmp_path):

@@ -17,7 +17,8 @@ them); for each removal reason (``outflow``, ``eroded``:
 ``<reason>_count``, ``<reason>_mass`` [kg], ``<reason>_momentum_x/y/z`` [kg m/s] and
 ``<reason>_kinetic_energy`` [J]; ``removed_rigid_count`` (rigid-body particles removed) and
 ``particles`` (particles left); then the columns of the ``extra`` providers (probe pressures and
-the head's motion of :mod:`tissuempm.io.head_history`).
+the head's motion of :mod:`tissuempm.io.head_history`; the applied surface forces of
+:class:`SurfaceForceColumns`).
 """
 
 import csv
@@ -151,6 +152,23 @@ class HistoryLog:
             rows = list(csv.reader(f))
         values = np.array(rows[1:], dtype=float).reshape(-1, len(rows[0]))
         return {name: values[:, k] for k, name in enumerate(rows[0])}
+
+
+class SurfaceForceColumns:
+    """An ``extra`` provider: ``surface_force_<k>_x/y/z`` [N], the force the ``[[surface_force]]`` table
+    ``k`` applies at the row's time, -p(t) sum J F^-T a0 over its patch
+    (:meth:`tissuempm.mpm.surface_loads.SurfaceForce.applied_force`; F(t) d on the seeded surface, then
+    following the patch's stretch and rotation)."""
+
+    def __init__(self, loads: tuple[Any, ...]):
+        self.loads = tuple(loads)
+        self.columns = [f"surface_force_{k}_{c}" for k in range(len(self.loads)) for c in ("x", "y", "z")]
+
+    def values(self, data: dict[str, Any]) -> list[float]:
+        return [float(f) for load in self.loads for f in load.applied_force(data)]
+
+    def restore(self, row: dict[str, float]) -> None:
+        """Nothing to carry between rows."""
 
 
 def _is_step(text: str) -> bool:

@@ -20,7 +20,15 @@ import numpy as np
 
 from tissuempm.mpm import Control, Grid, GridBoundary, ImplicitConfig, Model, ParticleData, SolverConfig, State, blast
 from tissuempm.mpm.rigid_pulses import RotatingDriver
-from tissuempm.mpm.surface_loads import BlastLoad, detect_surface, surface_acceleration
+from tissuempm.mpm.surface_loads import (
+    BlastLoad,
+    CurvePulse,
+    HalfSinePulse,
+    SurfaceForce,
+    SurfaceParticles,
+    detect_surface,
+    surface_acceleration,
+)
 from tissuempm.scenarios.amplitude import Amplitude
 from tissuempm.scenarios.checks import check_bodies, check_size
 from tissuempm.scenarios.geometry import Shape, UniformFiber, Union, seed
@@ -48,6 +56,9 @@ class Loading:
     blasts
         Blast waves on surface particles (:class:`~tissuempm.mpm.surface_loads.BlastLoad`): with a
         state, :meth:`at` adds their body accelerations (``Control.body_acceleration``).
+    surface_forces
+        Prescribed forces on surface patches (:class:`~tissuempm.mpm.surface_loads.SurfaceForce`),
+        added to the body accelerations as the blasts are.
 
     :meth:`at` gives the :class:`Control` (each load v a(t)) at a time. The runner evaluates
     it at the middle of each step, t + dt/2: the midpoint rule integrates a linear segment
@@ -61,13 +72,14 @@ class Loading:
     rigid_velocity: dict[int, tuple[Vec3, Amplitude]] = field(default_factory=dict)
     boundary_velocity: dict[int, tuple[Vec3, Amplitude]] = field(default_factory=dict)
     blasts: tuple[BlastLoad, ...] = ()
+    surface_forces: tuple[SurfaceForce, ...] = ()
     rotations: dict[int, RotatingDriver] = field(default_factory=dict)
 
     def at(self, time: float, state: State | None = None) -> Control:
         """The loads at ``time`` [s]; loads without an amplitude keep their model and config values.
-        The blast loads need the ``state`` (its positions and deformation): without it they are left out;
-        with it they are the mean over the step from ``state.time`` to 2 ``time`` - ``state.time``
-        (``time`` is the middle of the step, as the runner calls it)."""
+        The surface loads (blasts, surface forces) need the ``state`` (its positions and deformation): without
+        it they are left out; with it they are the mean over the step from ``state.time`` to
+        2 ``time`` - ``state.time`` (``time`` is the middle of the step, as the runner calls it)."""
 
         def scaled(load: tuple[Vec3, Amplitude]) -> Vec3:
             vector, amplitude = load
@@ -75,13 +87,14 @@ class Loading:
             return (a * vector[0], a * vector[1], a * vector[2])
 
         t0 = time if state is None else state.time
+        surface = [*self.blasts, *self.surface_forces]
         return Control(
             gravity=None if self.gravity is None else scaled(self.gravity),
             rigid_velocity={i: scaled(load) for i, load in self.rigid_velocity.items()},
             rigid_rotation={i: r.control(t0, max(t0, 2.0 * time - t0)) for i, r in self.rotations.items()},
             boundary_velocity={i: scaled(load) for i, load in self.boundary_velocity.items()},
-            body_acceleration=None if not self.blasts or state is None else surface_acceleration(
-                list(self.blasts), state, state.time, max(state.time, 2.0 * time - state.time)),
+            body_acceleration=None if not surface or state is None else surface_acceleration(
+                surface, state, state.time, max(state.time, 2.0 * time - state.time)),
         )
 
 
@@ -244,36 +257,84 @@ def build(scenario: Scenario, device: str = "cpu") -> Problem:
     model = build_model(scenario)
     particles, body = seed_particles(scenario, model)
     model = with_free_masses(scenario, model, particles, body)
-    loads = dataclasses.replace(loading(scenario), blasts=blast_loads(scenario, particles, body))
+    loads = dataclasses.replace(loading(scenario), blasts=blast_loads(scenario, particles, body),
+                                surface_forces=surface_forces(scenario, particles, body))
     return Problem(solver_config(scenario, device), model, particles, list(scenario.materials), body, loads)
+
+
+def loaded_surface(scenario: Scenario, particles: ParticleData, body: np.ndarray, bodies: list[str],
+                   where: str) -> SurfaceParticles:
+    """The exposed surface of the ``bodies`` named (:func:`~tissuempm.mpm.surface_loads.detect_surface`: every
+    other body's particles cover surface; the grid's faces are not exposed) of the seeded ``particles``
+    (``body``: each one's body index); ``where`` (``blast[0]``) names the table in errors."""
+    names = scenario.body_names()
+    g = scenario.grid
+    upper = tuple(lo + n * g.cell_size for lo, n in zip(g.lower, g.cells))
+    chosen = np.isin(body, [names.index(n) for n in bodies])
+    try:
+        surface = detect_surface(particles.x, particles.size, chosen, g.lower, upper)
+    except ValueError as e:
+        raise ScenarioError(f"{where}.bodies = {bodies}: {e}") from None
+    if len(surface.index) == 0:
+        raise ScenarioError(f"{where}.bodies = {bodies}: no exposed surface (every face touches another body)")
+    return surface
+
+
+def _unit(v: Vec3) -> Vec3:
+    n = float(np.linalg.norm(v))
+    return (v[0] / n, v[1] / n, v[2] / n)
 
 
 def blast_loads(scenario: Scenario, particles: ParticleData, body: np.ndarray) -> tuple[BlastLoad, ...]:
     """The ``[[blast]]`` loads on the seeded ``particles`` (``body``: each one's body index): the exposed
-    surface of the bodies listed (:func:`~tissuempm.mpm.surface_loads.detect_surface`; the rigid
-    bodies' particles cover surface but carry no load) and the wave's parameters in SI."""
-    if not scenario.blasts:
-        return ()
-    names = scenario.body_names()
-    g = scenario.grid
-    upper = tuple(lo + n * g.cell_size for lo, n in zip(g.lower, g.cells))
+    surface of the bodies listed (:func:`loaded_surface`; the rigid bodies' particles cover surface but
+    carry no load) and the wave's parameters in SI."""
     out = []
     for i, b in enumerate(scenario.blasts):
-        chosen = np.isin(body, [names.index(n) for n in b.bodies])
-        try:
-            surface = detect_surface(particles.x, particles.size, chosen, g.lower, upper)
-        except ValueError as e:
-            raise ScenarioError(f"blast[{i}].bodies = {b.bodies}: {e}") from None
-        if len(surface.index) == 0:
-            raise ScenarioError(f"blast[{i}].bodies = {b.bodies}: no exposed surface (every face touches another body)")
-        d = np.asarray(b.direction, float) / np.linalg.norm(b.direction)
+        surface = loaded_surface(scenario, particles, body, b.bodies, f"blast[{i}]")
+        d = _unit(b.direction)
         if b.reference_point is None:  # the first surface particle the front meets
             xs = particles.x[surface.index]
-            first = xs[int(np.argmin(xs @ d))]
+            first = xs[int(np.argmin(xs @ np.asarray(d)))]
             ref = (float(first[0]), float(first[1]), float(first[2]))
         else:
             ref = b.reference_point
         speed = b.front_speed if b.front_speed is not None else blast.shock_speed(b.peak, b.ambient, b.sound_speed)
-        out.append(BlastLoad(surface, particles.n, b.peak, b.duration, b.decay, (float(d[0]), float(d[1]), float(d[2])),
-                             b.arrival_time, ref, speed, blast.reflected_peak(b.peak, b.ambient), b.reflection))
+        out.append(BlastLoad(surface, particles.n, b.peak, b.duration, b.decay, d, b.arrival_time, ref, speed,
+                             blast.reflected_peak(b.peak, b.ambient), b.reflection))
+    return tuple(out)
+
+
+def surface_forces(scenario: Scenario, particles: ParticleData, body: np.ndarray) -> tuple[SurfaceForce, ...]:
+    """The ``[[surface_force]]`` loads on the seeded ``particles`` (``body``: each one's body index): the
+    patch of each, the exposed surface particles of its bodies (:func:`loaded_surface`) whose position
+    lies within ``radius`` of ``centre`` and whose area vector faces against the unit direction d
+    (a0 . d < 0), and its force history in SI (:class:`~tissuempm.mpm.surface_loads.SurfaceForce`).
+
+    Raises
+    ------
+    ScenarioError
+        When a patch holds no surface particle, or none facing against d.
+    """
+    out = []
+    for i, f in enumerate(scenario.surface_forces):
+        where = f"surface_force[{i}]"
+        surface = loaded_surface(scenario, particles, body, f.bodies, where)
+        d = _unit(f.direction)
+        near = np.linalg.norm(particles.x[surface.index] - np.asarray(f.centre), axis=1) <= f.radius
+        at = f"within {f.radius * 1e3:g} mm of ({', '.join(f'{c * 1e3:g}' for c in f.centre)}) mm"
+        if not near.any():
+            raise ScenarioError(f"{where}: no surface particle of bodies {f.bodies} {at}: put centre on their "
+                                "surface or widen radius")  # fmt: skip
+        facing = near & (surface.area_vector @ np.asarray(d) < -1e-9 * surface.spacing**2)
+        if not facing.any():
+            raise ScenarioError(f"{where}: no surface particle of bodies {f.bodies} {at} faces against direction = "
+                                f"[{', '.join(f'{c:g}' for c in f.direction)}] (a0 . d < 0): the force would "
+                                "pull on the surface; reverse direction or move centre")  # fmt: skip
+        if f.amplitude is None:
+            assert f.duration is not None  # SurfaceForceSection: duration or amplitude
+            pulse: HalfSinePulse | CurvePulse = HalfSinePulse(f.peak, f.duration, f.start)
+        else:
+            pulse = CurvePulse(f.peak, scenario.amplitude(f.amplitude), f.start)
+        out.append(SurfaceForce(surface.subset(facing), particles.n, d, pulse))
     return tuple(out)

@@ -70,6 +70,7 @@ from tissuempm.io import (
 from tissuempm.io.background import BackgroundWriter
 from tissuempm.io.frames import DEFAULT_FRAME_FIELDS, select_fields, state_names
 from tissuempm.io.head_history import head_history_columns
+from tissuempm.io.history import SurfaceForceColumns
 from tissuempm.materials.failure import FailureMode
 from tissuempm.mpm import ExplicitSolver, ImplicitSolver, InstabilityError, State
 from tissuempm.mpm.state import REMOVAL_COLUMNS, REMOVAL_REASONS
@@ -165,7 +166,9 @@ class Runner:
         fields = scenario.run.fields
         self.frame_fields = list(DEFAULT_FRAME_FIELDS if fields is None else fields)
         self._history_names = state_names(self.materials)
-        self.head_columns = head_history_columns(scenario, self.problem)  # [[probe]], [head] (docs/brain.md)
+        self.extra_columns = head_history_columns(scenario, self.problem)  # [[probe]], [head] (docs/brain.md)
+        if self.problem.loading.surface_forces:  # surface_force_<k>_x/y/z: the applied forces
+            self.extra_columns.append(SurfaceForceColumns(self.problem.loading.surface_forces))
         self.startup_s = wallclock.perf_counter() - created
         """Seconds spent building the problem (seeding) and the solver; :meth:`run` adds the
         initial state and the kernel loading."""
@@ -325,7 +328,7 @@ class Runner:
         free = tuple(i for i in rigid if self.problem.model.is_free(i))
         rotating = tuple(i for i in free if self.problem.model.materials[i].rotates)
         removed = tuple(f"{r}_{c}" for r in REMOVAL_REASONS for c in REMOVAL_COLUMNS)
-        self.history = HistoryLog(self.out / HISTORY, rigid, free, removed, tuple(self.head_columns),
+        self.history = HistoryLog(self.out / HISTORY, rigid, free, removed, tuple(self.extra_columns),
                                   axisymmetric=self.problem.model.axisymmetric, rotating=rotating)
         self.clock0, self.wall_before = wallclock.perf_counter(), 0.0
         self.output_s, self.frame_at, self.history_at = 0.0, -math.inf, -1
@@ -444,6 +447,12 @@ class Runner:
         bodies = getattr(self.solver, "free", None)
         if bodies is not None:  # mass (and inertia) in use against the seeded particles' (mpm.free_bodies)
             out["free_bodies"] = {names[i]: p for i, p in bodies.properties().items()}
+        forces = self.problem.loading.surface_forces
+        if forces:  # each patch and the impulse of its F(t) to the end (history.csv: the force it applied)
+            out["surface_forces"] = [{"particles": len(f.surface.index), "projected_area": f.projected_area,
+                                      "direction": list(f.direction),
+                                      "impulse": f.pulse.integral(0.0, self.scenario.run.end_time)}
+                                     for f in forces]  # fmt: skip
         if final is not None:
             diag = self.solver.diagnostics(state)
             diag["reaction"] = {names[i]: f for i, f in diag.get("reaction", {}).items()}

@@ -8,12 +8,14 @@ key by its path in the file (``solver.cfl``, ``body[0].shape.radius``) with the
 valid range.
 
 Sections: ``[solver]``, ``[grid]``, ``[materials.<name>]``, ``[[body]]``,
-``[[boundary]]``, ``[[fixed]]``, ``[[contact]]``, ``[[blast]]``, ``[amplitudes.<name>]`` and ``[run]``.
+``[[boundary]]``, ``[[fixed]]``, ``[[contact]]``, ``[[blast]]``, ``[[surface_force]]``, ``[amplitudes.<name>]``
+and ``[run]``.
 
 Time-varying loads: gravity (``solver.gravity_amplitude``), a rigid driver's
-velocity (``materials.<name>.amplitude``) and a grid face's velocity
-(``boundary[i].amplitude``) are their nominal value times an amplitude curve
-a(t) (:class:`tissuempm.scenarios.amplitude.Amplitude`), given by the name of an
+velocity (``materials.<name>.amplitude``), a grid face's velocity
+(``boundary[i].amplitude``) and a surface force's peak (``surface_force[i].amplitude``)
+are their nominal value times an amplitude curve a(t)
+(:class:`tissuempm.scenarios.amplitude.Amplitude`), given by the name of an
 ``[amplitudes.<name>]`` table or inline as ``[[time, factor], ...]``.
 """
 
@@ -50,6 +52,7 @@ from tissuempm.options import (
     Pressure,
     Speed,
     Time,
+    quantity,
 )
 from tissuempm.scenarios import geometry
 from tissuempm.scenarios.amplitude import Amplitude
@@ -597,6 +600,46 @@ class BlastSection(Section):
     _check = field_validator("direction")(_nonzero)
 
 
+Force: Any = quantity("N")
+"""A force [N]: an SI number or a string with a unit ("3.95 kN")."""
+
+
+class SurfaceForceSection(Section):
+    """``[[surface_force]]``: a prescribed force F(t) on a patch of the exposed surface of ``bodies``
+    (:class:`tissuempm.mpm.surface_loads.SurfaceForce`; docs/head_loads.md), applied as the pressure
+    p(t) = F(t) / A_proj normal to the surface (a follower load) on the surface particles whose initial
+    position lies within ``radius`` of ``centre`` and whose area vector faces against ``direction``
+    (a0 . d < 0); A_proj = sum -a0 . d, the patch's projected area, so that the net force along d is F(t)
+    on the seeded surface.
+
+    F(t) = ``peak`` sin(pi (t - start)/``duration``) for start <= t <= start + duration (``pulse =
+    "half_sine"``, the default shape), or ``peak`` a(t - start) for t >= start with a(u) the
+    ``amplitude`` curve; 0 before ``start``.
+    """
+
+    bodies: Annotated[list[str], Field(min_length=1)]
+    centre: Point
+    radius: Annotated[Length, Field(gt=0.0)]
+    direction: Direction
+    peak: Annotated[Force, Field(gt=0.0, le=1.0e9)]
+    pulse: Literal["half_sine"] | None = None
+    duration: Annotated[Time, Field(gt=0.0)] | None = None
+    amplitude: AmplitudeRef | None = None
+    start: Annotated[Time, Field(ge=0.0)] = 0.0
+
+    _check = field_validator("direction")(_nonzero)
+
+    @model_validator(mode="after")
+    def _history(self) -> "SurfaceForceSection":
+        if self.amplitude is not None and (self.pulse is not None or self.duration is not None):
+            raise ValueError("give either pulse = 'half_sine' with duration, or amplitude (the curve a(t) that "
+                             "scales peak), not both")  # fmt: skip
+        if self.amplitude is None and self.duration is None:
+            raise ValueError("needs the force history: duration (of pulse = 'half_sine'), or amplitude (the curve "
+                             "a(t) that scales peak)")  # fmt: skip
+        return self
+
+
 # ---------------------------------------------------------------------------- [[label_volume]]
 
 
@@ -1063,6 +1106,7 @@ class Scenario(Section):
     fixed: list[FixedSection] = []
     contacts: Annotated[list[ContactSection], Field(alias="contact")] = []
     blasts: Annotated[list[BlastSection], Field(alias="blast")] = []
+    surface_forces: Annotated[list[SurfaceForceSection], Field(alias="surface_force")] = []
     amplitudes: dict[str, AmplitudeSpec] = {}
     probes: Annotated[list[ProbeSection], Field(alias="probe")] = []
     head: HeadSection | None = None
@@ -1129,6 +1173,19 @@ class Scenario(Section):
                     raise ValueError(f"blast[{i}].bodies: {name!r} is not a body name: choose from {body_names}")
             if self.solver.integrator == "implicit":
                 raise ValueError(f"blast[{i}]: [[blast]] needs solver.integrator = 'explicit'")
+            if self.grid.axisymmetric:
+                raise ValueError(f"blast[{i}]: [[blast]] is not available on an axisymmetric grid "
+                                 "(the surface's areas are those of a 3-D lattice)")  # fmt: skip
+        for i, force in enumerate(self.surface_forces):
+            for name in force.bodies:
+                if name not in body_names:
+                    raise ValueError(f"surface_force[{i}].bodies: {name!r} is not a body name: "
+                                     f"choose from {body_names}")
+            if self.solver.integrator == "implicit":
+                raise ValueError(f"surface_force[{i}]: [[surface_force]] needs solver.integrator = 'explicit'")
+            if self.grid.axisymmetric:
+                raise ValueError(f"surface_force[{i}]: [[surface_force]] is not available on an axisymmetric grid "
+                                 "(the patch's areas are those of a 3-D lattice)")  # fmt: skip
         if self.solver.integrator == "implicit":
             for i, spec in self.rigid_drivers().items():
                 if spec.rotation is not None:
@@ -1260,6 +1317,7 @@ class Scenario(Section):
         uses += [(f"materials.{names[i]}.rotation.amplitude", spec.rotation.amplitude)
                  for i, spec in self.rigid_drivers().items() if spec.rotation is not None]  # fmt: skip
         uses += [(f"boundary[{i}].amplitude", bc.amplitude) for i, bc in enumerate(self.boundaries)]
+        uses += [(f"surface_force[{i}].amplitude", f.amplitude) for i, f in enumerate(self.surface_forces)]
         return [(where, ref) for where, ref in uses if ref is not None]
 
     def amplitude(self, ref: AmplitudeSpec | str) -> Amplitude:
