@@ -57,8 +57,33 @@ TRAFFIC = {
     # F-bar (tissuempm.mpm.volumetric): "scratch" = bytes per particle of its own arrays (key 4, share 2 scalars, dJ 1)
     "F-bar measure": {"r": ["x", "F", "L", "volume0", "material"], "w": [], "nodes": 0, "scratch": (4, 3)},
     "F-bar sums": {"r": [], "w": [], "nodes": 0, "scratch": (4, 2)},  # each thread scans every key and share
-    "F-bar apply": {"r": ["F", "L"], "w": ["F", "L"], "nodes": 0, "scratch": (4, 1)},
 }
+FBAR_STRESS = {"w": ["F", "L"], "scratch": (4, 1)}
+"""Additions to the stress phase's traffic with F-bar: the stress kernels apply the cell factor (key, dJ;
+the table's entries are few) and write F and L back."""
+STORED_STENCILS = {
+    "P2G": {"r": [], "w": ["stencil"]},
+    "G2P move": {"r": ["stencil"], "w": [], "not": ["x", "size"]},
+    "G2P gradient": {"r": ["stencil"], "w": [], "not": ["size"]},
+    "G2P all": {"r": ["stencil"], "w": [], "not": ["size"]},
+}
+"""Changes to ``TRAFFIC`` when the step keeps its P2G stencils for the gathers (``solver._stored_stencils``,
+:data:`tissuempm.mpm.kernels.CACHE`): P2G writes each particle's stencil, the gathers read it instead of
+the stencil's inputs (``not``: the position where nothing else of the pass reads it, the size)."""
+
+
+def traffic(solver) -> dict[str, dict]:
+    """``TRAFFIC`` for ``solver``'s step (with :data:`STORED_STENCILS` where it keeps its stencils, with
+    :data:`FBAR_STRESS` with F-bar)."""
+    out = dict(TRAFFIC)
+    if solver._stored_stencils:
+        for name, d in STORED_STENCILS.items():
+            tr = TRAFFIC[name]
+            out[name] = {**tr, "r": [a for a in tr["r"] if a not in d.get("not", [])] + d["r"], "w": tr["w"] + d["w"]}
+    if solver.volumetric is not None:
+        tr = TRAFFIC["stress"]
+        out["stress"] = {**tr, "w": tr["w"] + FBAR_STRESS["w"], "scratch": FBAR_STRESS["scratch"]}
+    return out
 
 
 def copy_bandwidth(threads: int, mbytes: int = 256, repeat: int = 5) -> float:
@@ -82,16 +107,18 @@ def phase_labels(solver) -> dict[int, str]:
     kern = solver.kern
     lab = {}
     for flags in (K.MASS | K.FORCE, K.MASS | K.FORCE | K.BODY, K.MASS, K.FORCE):
-        lab[id(kern.p2g(flags))] = "P2G"
+        lab[id(kern.p2g(solver._scatter_flags(flags)))] = "P2G"
     lab[id(kern.grid(K.MASS | K.FORCE, K.UPDATE))] = "grid"
     lab[id(kern.grid(K.MOMENTUM, K.VELOCITY))] = "grid velocity"
-    lab[id(kern.g2p(K.MOVE | K.REPROJECT))] = "G2P move"
-    lab[id(kern.g2p(K.GRADIENT | K.POSITION))] = "G2P gradient"
-    lab[id(kern.g2p(K.MOVE | K.GRADIENT | K.POSITION | K.SHARED))] = "G2P all"
+    gathers = {"G2P move": (K.MOVE | K.REPROJECT, True), "G2P gradient": (K.GRADIENT | K.POSITION, False),
+               "G2P all": (K.MOVE | K.GRADIENT | K.POSITION, True)}  # fmt: skip
+    for name, (flags, shared) in gathers.items():
+        for f in solver._gather_passes(flags, shared):  # with the stored stencils' flag where the step keeps them
+            lab[id(kern.g2p(f))] = name
     lab[id(kern.reaction)] = "reaction"
     vol = getattr(solver, "volumetric", None)
     if vol is not None:  # F-bar (the default anti-locking)
-        lab[id(vol.measure)], lab[id(vol.accumulate)], lab[id(vol.apply)] = "F-bar measure", "F-bar sums", "F-bar apply"
+        lab[id(vol.measure)], lab[id(vol.accumulate)] = "F-bar measure", "F-bar sums"  # applied in the stress kernels
     for _, _, mk, _ in solver.laws:
         lab[id(mk.stress)] = "stress"
         lab[id(mk.speed)] = "CFL"
@@ -164,12 +191,14 @@ def profile(case, precision, threads, transfer, steps, cells, ppc, scenario=None
     bw = copy_bandwidth(threads)
     itemsize = {name: getattr(st, name).numpy().nbytes // st.n for name in st.fields}  # bytes per particle
     itemsize["history"] = st.history.numpy().nbytes // st.n
+    itemsize["stencil"] = solver._stencils.numpy().itemsize  # the stored stencils (kernels.CACHE), one per particle
+    phase_traffic = traffic(solver)
     rec_bytes = 4 * np.dtype(st.x.numpy().dtype).itemsize
     lo, hi = solver._window(st)
     n_nodes = hi - lo
     rows = []
     for name, t in sorted(times.items(), key=lambda kv: -kv[1]):
-        tr = TRAFFIC.get(name)
+        tr = phase_traffic.get(name)
         nbytes = None
         if tr is not None:
             nbytes = st.n * sum(itemsize[a] for a in tr["r"] + tr["w"]) + n_nodes * rec_bytes * tr["nodes"]

@@ -39,10 +39,17 @@ def test_example_configs_load_and_their_data_read(name):
 
 
 def test_viscoelastic_data_regenerate_identically(tmp_path, monkeypatch):
+    """The generator writes the shipped files again: the same comment lines and columns, the numbers to 1e-12
+    (a fresh venv with NumPy 2.4.6 and SciPy 1.17.1 changed the last printed digit of a few of them)."""
     gen = _generator()
     monkeypatch.setattr(gen, "OUT", tmp_path)
     for path in gen.main():
-        assert path.read_text() == (EXAMPLES / "data" / path.name).read_text(), path.name
+        new, shipped = path.read_text().splitlines(), (EXAMPLES / "data" / path.name).read_text().splitlines()
+        assert [ln for ln in new if ln.startswith("#")] == [ln for ln in shipped if ln.startswith("#")], path.name
+        data = [[ln.split(",") for ln in lines if not ln.startswith("#")] for lines in (new, shipped)]
+        assert data[0][0] == data[1][0] and len(data[0]) == len(data[1]), path.name  # header row, row count
+        np.testing.assert_allclose(np.array(data[0][1:], float), np.array(data[1][1:], float), rtol=1e-12,
+                                   atol=0, err_msg=path.name)
 
 
 def test_viscoelastic_data_hold_the_stated_truth_and_noise():

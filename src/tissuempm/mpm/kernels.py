@@ -60,6 +60,15 @@ REFERENCE = wp.constant(32)
 """Gather with GRADIENT on a grid that is not reset (:mod:`tissuempm.mpm.reference_grid`): ``x``
 holds the particles' positions at the last reset, the stencil's gradients are reference
 gradients, and F <- F + dt (sum v_i (x) grad_ref S) F_ref (total-Lagrangian update)."""
+CACHE = wp.constant(64)
+"""P2G with MASS: store each particle's stencil (:func:`_helpers` ``stencil``: its first record and
+18 axis values) in ``P.stencil``; G2P with MOVE or GRADIENT: read it from there instead of evaluating
+it again. For the steps whose gathers use the stencils of the step's P2G (MUSL, USL; see
+:data:`CACHED_SHAPES`)."""
+CACHED_SHAPES: tuple[str, ...] = ("gimp", "cpgimp", "bspline")
+"""Shapes whose stencil a MUSL or USL step evaluates once (:data:`CACHE`; uGIMP: 22 ns a stencil,
+docs/mpm.md, against 152 B (float64) stored once and read twice). Not the linear tent: its axis values
+are a floor and a subtraction per axis (derivatives +-1), less work than loading them."""
 SLOT = 16
 """Elements between two chunks' entries of the per-chunk arrays (window bounds, first bad
 particle, signal speed): chunks update them from parallel threads, one cache line each."""
@@ -162,6 +171,29 @@ def _helpers(t: WarpTypes, shape: str, NF: int) -> SimpleNamespace:
         nb = (bx * sx + by * sy + bz) * NF + f
         return nb, sx * NF, sy * NF, wx, wy, wz, dx * inv_h, dy * inv_h, dz * inv_h
 
+    Stencil = kernel_structs(t).Stencil
+
+    @wp.func
+    def store(cache: wp.array(dtype=Stencil), p: int, nb: int, wx: vec3, wy: vec3, wz: vec3, dx: vec3, dy: vec3,
+              dz: vec3):  # fmt: skip
+        """Keep particle ``p``'s stencil (``stencil``'s record ``nb``, weights and derivatives) in ``cache``."""
+        e = Stencil()
+        e.nb = nb
+        e.wx = wx
+        e.wy = wy
+        e.wz = wz
+        e.dx = dx
+        e.dy = dy
+        e.dz = dz
+        cache[p] = e
+
+    @wp.func
+    def stored(cache: wp.array(dtype=Stencil), p: int, dims: wp.vec3i):
+        """Particle ``p``'s stencil from ``cache`` (``store``), as ``stencil`` returns it."""
+        e = cache[p]
+        sx, sy = node_strides(dims)
+        return e.nb, sx * NF, sy * NF, e.wx, e.wy, e.wz, e.dx, e.dy, e.dz
+
     @wp.func
     def field_of(field: wp.array(dtype=wp.int32), p: int):
         """Velocity field of particle ``p`` (0 without contact: the array is not read)."""
@@ -250,8 +282,8 @@ def _helpers(t: WarpTypes, shape: str, NF: int) -> SimpleNamespace:
                     b_x[nb + i * sx + j * sy + k * NF] += wz[k] * xa + pz[k] * xb
 
     return SimpleNamespace(
-        stencil=stencil, field_of=field_of, extent=extent, box_moments=box_moments, scatter_position=scatter_position,
-        NP=NP,
+        stencil=stencil, store=store, stored=stored, field_of=field_of, extent=extent, box_moments=box_moments,
+        scatter_position=scatter_position, NP=NP,
     )  # fmt: skip
 
 
@@ -283,7 +315,8 @@ def kernel_structs(t: WarpTypes) -> SimpleNamespace:
         rebuilt when particles are removed). ``xs`` holds the stencil positions (``x``, or ``xref`` on a
         grid without reset) and ``F_ref`` the deformation at the last reset (else ``F``); ``bulk_q`` and
         ``bulk_work`` are ``work`` without bulk viscosity (never read then); ``code`` and the slots ``drop`` are the
-        removal classification's (:mod:`tissuempm.mpm.removal`).
+        removal classification's (:mod:`tissuempm.mpm.removal`); ``stencil`` the stencils of the step's P2G
+        (``Stencil``, one per particle with :data:`CACHE`, else one placeholder entry).
     ``Grid``
         The solver's grid (geometry, wall planes), nodal records ``g_*``, chunk buffers ``b_*`` (n_chunks, records),
         rigid-material and grid-face tables: one per solver. The rotation records ``b_xp`` (the deforming
@@ -295,11 +328,26 @@ def kernel_structs(t: WarpTypes) -> SimpleNamespace:
         takes): one per solver, its members set by each phase before its parallel section.
     ``Rows``
         One chunk's rows of the chunk buffers (1-D views), one per chunk.
+    ``Stencil``
+        One particle's stencil as the P2G of a step with :data:`CACHE` stores it for the step's gathers
+        (``Particles.stencil``): the flat record ``nb`` of its first node (velocity field included) and the
+        per-axis weights ``wx``, ``wy``, ``wz`` and derivatives ``dx``, ``dy``, ``dz`` [1/m] (152 B in float64,
+        76 B in float32).
 
     A recorded launch (:mod:`tissuempm.mpm.launch`) packs a struct by reference: it reads the members
     the struct holds at each launch, so a struct is built once and its members are updated in place.
     """
     s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
+
+    @wp.struct
+    class Stencil:
+        nb: int
+        wx: vec3
+        wy: vec3
+        wz: vec3
+        dx: vec3
+        dy: vec3
+        dz: vec3
 
     @wp.struct
     class Particles:
@@ -329,6 +377,7 @@ def kernel_structs(t: WarpTypes) -> SimpleNamespace:
         speed: wp.array(dtype=s)
         drop: wp.array(dtype=int)
         code: wp.array(dtype=wp.int32)
+        stencil: wp.array(dtype=Stencil)
 
     @wp.struct
     class Grid:
@@ -381,7 +430,7 @@ def kernel_structs(t: WarpTypes) -> SimpleNamespace:
         b_xp: wp.array(dtype=vec4)
         b_w: wp.array(dtype=vec4)
 
-    return SimpleNamespace(Particles=Particles, Grid=Grid, Step=Step, Rows=Rows)
+    return SimpleNamespace(Particles=Particles, Grid=Grid, Step=Step, Rows=Rows, Stencil=Stencil)
 
 
 @functools.cache
@@ -394,6 +443,8 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
     pack = vec4_helpers(t).pack
     rigid_velocity, _, rigid_turns, rigid_first_node = rigid_motion_functions(t)
     POS = NF > 1 and (flags & MASS) != 0  # the contact gap's position record
+    CACHED = (flags & CACHE) != 0 and (flags & MASS) != 0
+    store = h.store
 
     @transfer_kernel
     def p2g(P: A.Particles, G: A.Grid, S: A.Step, B: A.Rows, begin: int, c: int):
@@ -409,6 +460,7 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
         (:mod:`tissuempm.mpm.axisymmetric`, eq. (2)).
 
         The stencil sits at ``P.xs``. Each particle scatters into its own velocity field's records (``P.field``).
+        With MASS and CACHE each particle's stencil is kept in ``P.stencil`` for the step's gathers.
 
         With MASS and ``G.window`` != 0 (CPU chunks) the chunk's scatter window ``[P.lo[c], P.hi[c]]``
         (flat record indices, for the grid reduction) grows to hold the stencil, ``nb`` to
@@ -419,6 +471,8 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
         xp = P.xs[p]
         nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(xp, p, P.size, P.F, G.origin, G.inv_h, G.dims,
                                                      field_of(P.field, p))  # fmt: skip
+        if wp.static(CACHED):
+            store(P.stencil, p, nb, wx, wy, wz, dx, dy, dz)
         if wp.static(flags & MASS):
             if G.window != 0:
                 wp.atomic_min(P.lo, c, nb)
@@ -724,7 +778,7 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
     A = kernel_structs(t)
     s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
     h = _helpers(t, shape, NF)
-    stencil, field_of, NP = h.stencil, h.field_of, h.NP
+    stencil, stored, field_of, NP = h.stencil, h.stored, h.field_of, h.NP
     v4 = vec4_helpers(t)
     pack, head = v4.pack, v4.head
     rigid_step = rigid_motion_functions(t)[1]
@@ -743,7 +797,8 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
                   reference configuration (stencil at ``P.xs`` = positions at the last reset, deformation
                   ``P.F_ref`` there): F <- F + dt L_0 F_ref with L_0 = sum v_i (x) grad_0 S, and
                   L_p = L_0 F_ref F^-1 (``F_ref`` is not read otherwise).
-        Every sum runs over the particle's own velocity field (``P.field``); the stencil sits at ``P.xs``.
+        Every sum runs over the particle's own velocity field (``P.field``); the stencil sits at ``P.xs``
+        (with CACHE it is the one this step's P2G kept in ``P.stencil``, at the same positions and domains).
         POSITION: x <- x + dt v_pic (``P.x``), projected back onto a wall face (slip or fixed: ``G.wall_lo``,
                   ``G.wall_hi``; +-inf where there is none) that it crossed by round-off or FLIP
                   drift, then checked to be inside the grid.
@@ -757,9 +812,12 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
         rigid = G.mat_rigid[mat] != 0
         dt = S.dt
         if wp.static(flags & (MOVE | GRADIENT)):
-            xp = P.xs[p]
-            nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(xp, p, P.size, P.F, G.origin, G.inv_h, G.dims,
-                                                         field_of(P.field, p))  # fmt: skip
+            # the stencil (with CACHE the one of this step's P2G: its inputs, the position and domain, are not read)
+            if wp.static(flags & CACHE):
+                nb, sx, sy, wx, wy, wz, dx, dy, dz = stored(P.stencil, p, G.dims)
+            else:
+                nb, sx, sy, wx, wy, wz, dx, dy, dz = stencil(P.xs[p], p, P.size, P.F, G.origin, G.inv_h, G.dims,
+                                                             field_of(P.field, p))  # fmt: skip
             vpic4 = vec4()
             dv4 = vec4()
             c0 = vec4()
@@ -802,7 +860,7 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
             if wp.static(flags & MOVE):
                 vpic = head(vpic4)
                 if rigid:  # the rigid table's motion (mpm.rigid_pulses): Cayley step of the rotation
-                    vpic, vr = rigid_step(G.rigid_vel, mat, xp, dt)
+                    vpic, vr = rigid_step(G.rigid_vel, mat, P.xs[p], dt)
                     P.v[p] = vr
                 elif P.fixed[p] != 0:
                     vpic = vec3()
@@ -823,7 +881,7 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
             if wp.static(flags & GRADIENT):
                 Lp = wp.matrix_from_cols(head(c0), head(c1), head(c2))  # L = sum v_i (x) grad S_i
                 if wp.static(AX):
-                    Lp[2, 2] = c3[0] / xp[0]  # v_r / r
+                    Lp[2, 2] = c3[0] / P.xs[p][0]  # v_r / r
                 if rigid:
                     Lp = mat33()
                 Fo = P.F[p]
@@ -940,18 +998,26 @@ def gather_kernel(dtype: Any, rows: bool = False) -> Any:
 
 
 @functools.cache
-def material_kernels(cls: type, t: WarpTypes, bulk_viscosity: bool = False) -> SimpleNamespace:
+def material_kernels(cls: type, t: WarpTypes, bulk_viscosity: bool = False, fbar: str = "none") -> SimpleNamespace:
     """Stress-update and signal-speed kernels of one law (``cls``) for types ``t``.
 
     Each kernel skips particles whose material index differs from ``mat_id``, so
     several laws share one velocity field. With ``bulk_viscosity`` the stress kernel adds the
     artificial bulk viscosity of :mod:`tissuempm.mpm.config` (``bulk_viscosity_linear`` and
-    ``_quadratic``) in compression.
+    ``_quadratic``) in compression. With ``fbar`` = ``"incremental"`` or ``"total"`` it first applies
+    the F-bar cell factor of that form (:mod:`tissuempm.mpm.volumetric`) to F and L.
     """
+    from tissuempm.mpm.volumetric import fbar_cells  # not at the top: volumetric imports removal, which imports this
+
+    if fbar not in ("none", "incremental", "total"):
+        raise ValueError(f"fbar = {fbar!r}: valid are 'none', 'incremental', 'total'")
     s, vec3, mat33 = t.scalar, t.vec3, t.mat33
     stress_moduli_fn = cls.stress_moduli_function(t.precision)
     moduli_fn = cls.moduli_function(t.precision)
     BV = bulk_viscosity
+    FB = fbar != "none"
+    cells = fbar_cells(t, fbar == "total")  # without F-bar the kernel's placeholder argument, never read
+    factor = cells.factor
     A = kernel_structs(t)
     density = header(t).density
 
@@ -973,11 +1039,15 @@ def material_kernels(cls: type, t: WarpTypes, bulk_viscosity: bool = False) -> S
         return wave_speed(Fp, a0, prm, hist, p) + wp.length(vp)
 
     @kernel
-    def stress(mat_id: int, prm: wp.array(dtype=s), P: A.Particles, G: A.Grid, S: A.Step, s_in: wp.array2d(dtype=s),
-               s_out: wp.array2d(dtype=s), begin: int, c: int):  # fmt: skip
+    def stress(mat_id: int, prm: wp.array(dtype=s), P: A.Particles, G: A.Grid, S: A.Step, V: cells.Cells,
+               s_in: wp.array2d(dtype=s), s_out: wp.array2d(dtype=s), begin: int, c: int):  # fmt: skip
         """sigma_p = law(F, L, a0, history) (``P.stress``; history rows ``s_in`` -> ``s_out``); internal
         work ``P.work`` += V (sigma_old + sigma_new)/2 : D dt of the law's stress; the signal speed of the
         new state into ``P.speed`` (the next step's CFL bound when v is already the new one).
+
+        F-bar (``fbar``): F and L first take the particle's cell factor (``V``, the pass's cell table,
+        :func:`tissuempm.mpm.volumetric.fbar_cells`) and are kept so (``P.F``, ``P.L``); in the same pass,
+        as F and L are read here anyway.
 
         Bulk viscosity (``bulk_viscosity``; von Neumann & Richtmyer 1950, Wilkins 1980, as in
         LS-DYNA's ``*CONTROL_BULK_VISCOSITY``): with tr D < 0 the particle carries the extra
@@ -992,6 +1062,13 @@ def material_kernels(cls: type, t: WarpTypes, bulk_viscosity: bool = False) -> S
         dt = S.dt
         Fp = P.F[p]
         Lp = P.L[p]
+        if wp.static(FB):
+            if V.key[p] >= 0:  # a particle that takes part in the cell average
+                Fn, Ln = factor(V, p, Fp, Lp, dt)
+                Fp = Fn
+                Lp = Ln
+                P.F[p] = Fp
+                P.L[p] = Lp
         a0 = P.fiber[p]
         # the stress and the moduli of the new state in one call (a law computes its invariants once)
         sig, Kn, Gn = stress_moduli_fn(Fp, Lp, a0, prm, s_in, s_out, p, dt)

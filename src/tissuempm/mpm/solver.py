@@ -5,7 +5,8 @@ One step (:meth:`ExplicitSolver.step`) for MUSL, parallel sections in brackets::
     stable_dt       dt = cfl h / max(c_p + |v_p|): the speeds come from the previous step's
                     stress pass (a pass of their own only on the first step or after USF steps)
     [rasterize]     P2G of (m v, m), constraint records and internal + body force (chunk buffers;
-                    each chunk's scatter window tracked on the way)
+                    each chunk's scatter window tracked on the way); each particle's stencil kept
+                    for the two gathers (they use the same one: evaluated once a step, ``kernels.CACHE``)
     [solve_grid]    reduce the chunk buffers in chunk order (zeroing them); v_i^new = v_i + dt (f_i/m_i
                     + g - alpha v_i); rigid/fixed constraints and grid-face conditions; reaction forces
     [contact]       with several velocity fields (bodies in contact): the nodal contact correction
@@ -17,8 +18,9 @@ One step (:meth:`ExplicitSolver.step`) for MUSL, parallel sections in brackets::
     check           NaN, J <= 0, particle outside the grid -> InstabilityError
     sort            every ``sort_interval`` steps, particles sorted by cell
 
-USL gathers once with the updated grid velocity; USF computes L and the stress from
-the re-projected velocity before the force scatter.
+USL gathers once with the updated grid velocity (with the P2G's stencils too); USF computes L
+and the stress from the re-projected velocity before the force scatter (each transfer evaluates
+its stencil: the force scatter and the move gather follow the F update, which moves cpGIMP's domains).
 
 Parallelism (CPU): particles are split into contiguous chunks (of the cell-sorted
 order); each chunk scatters into a private grid buffer restricted to the window of
@@ -53,7 +55,7 @@ from tissuempm.mpm.removal import KEEP, OUTFLOW, UNSTABLE, classify_kernel, eros
 from tissuempm.mpm.shape_functions import GIMP_SHAPES
 from tissuempm.mpm.state import OPTIONAL_FIELDS, PARTICLE_FIELDS, REMOVAL_COLUMNS, REMOVAL_REASONS, State, warp_array
 from tissuempm.mpm.tracking import Tracker
-from tissuempm.mpm.volumetric import CellAverage
+from tissuempm.mpm.volumetric import CellAverage, fbar_cells
 from tissuempm.mpm.warmup import builder
 from tissuempm.precision import cuda_driver_present, init_warp, warp_types
 
@@ -167,6 +169,10 @@ class ExplicitSolver(Integrator):
         if self.axisymmetric and cfg.grid == "no_reset":
             raise ValueError("axisymmetric models need grid = 'reset' (the grid without reset is 3-D only)")
         self.kern = K.transfer_kernels(self.t, cfg.shape, self.n_fields, self.axisymmetric)
+        # MUSL and USL gather with the stencils of the step's P2G (same positions P.xs, and the domains of the
+        # step's start: F changes in the gradient gather after its stencil is formed): P2G keeps them (K.CACHE).
+        # USF's force scatter and move gather come after its F update (cpGIMP's domains differ): evaluated each time
+        self._stored_stencils = cfg.transfer in ("musl", "usl") and cfg.shape in K.CACHED_SHAPES
         grid = model.grid
         self.h = grid.cell_size
         self.dims = wp.vec3i(*grid.shape)
@@ -176,12 +182,17 @@ class ExplicitSolver(Integrator):
         self.n_nodes = grid.n_nodes * self.n_fields  # nodal records: one per node and velocity field
         if model.contact is not None:  # the contact kernel's law tables (mpm.contact.contact_struct)
             self.contact_args: Any = model.contact.kernel_args(self.t, self.device)
+        # F-bar: the cell averages, applied by the stress kernels (their placeholder argument without it)
+        self.anti_locking = cfg.anti_locking or ("none" if self.axisymmetric else self.default_anti_locking)
+        self.volumetric = CellAverage(self) if self.anti_locking != "none" else None
+        fbar = self.volumetric.form if self.volumetric is not None else "none"
+        self._cells = self.volumetric.cells if self.volumetric is not None else fbar_cells(self.t, False).Cells()
         # materials
         n_mat = len(model.materials)
         self.laws: list[tuple[int, Material, Any, wp.array]] = []
         for i, m in enumerate(model.materials):
             if isinstance(m, Material):
-                mk = K.material_kernels(type(m), self.t, cfg.bulk_viscosity)  # type: ignore[arg-type]  # classes hash
+                mk = K.material_kernels(type(m), self.t, cfg.bulk_viscosity, fbar)  # type: ignore[arg-type]  # hashable
                 prm = self._parameters(m)
                 self.laws.append((i, m, mk, prm))
         self.mat_rigid: wp.array = wp.array(
@@ -197,8 +208,6 @@ class ExplicitSolver(Integrator):
         slots = erosion_slots(model.materials)  # failure column of each eroding law (mpm.removal)
         self._erodes = bool(np.any(slots >= 0))
         self.erode_slot: wp.array = wp.array(slots, dtype=wp.int32, device=self.device)
-        self.anti_locking = cfg.anti_locking or ("none" if self.axisymmetric else self.default_anti_locking)
-        self.volumetric = CellAverage(self) if self.anti_locking != "none" else None
         # grid faces
         kinds = np.zeros(6, dtype=np.int32)
         self._bc_velocity = np.zeros((6, 3))
@@ -247,6 +256,8 @@ class ExplicitSolver(Integrator):
         S.gravity, S.damping, S.flip = self._gravity, cfg.damping, cfg.flip
         S.c_lin, S.c_quad = cfg.bulk_viscosity_linear, cfg.bulk_viscosity_quadratic
         self._row_args: list[Any] = []  # per chunk: its rows of the chunk buffers (structs.Rows)
+        # the stencils a MASS scatter keeps for the step's gathers (K.CACHE): one placeholder until a step keeps them
+        self._stencils = wp.zeros(1, dtype=self.structs.Stencil, device=self.device)
         self.reactions = True
         """Whether a step computes the constrained particles' reaction shares (``State.reaction``,
         a pass over the particles when the model has rigid or fixed ones). A caller that reads them
@@ -424,7 +435,7 @@ class ExplicitSolver(Integrator):
         else:  # placeholders, never read
             P.bulk_q, P.bulk_work = st.work, st.work
         P.n_chunks, P.lo, P.hi, P.bad, P.speed = len(st.chunks), st.lo, st.hi, st.bad, st.speed
-        P.drop, P.code = st.drop, st.code
+        P.drop, P.code, P.stencil = st.drop, st.code, self._stencils
         return P
 
     # ------------------------------------------------------------------------------ helpers
@@ -579,6 +590,9 @@ class ExplicitSolver(Integrator):
         body = self._body if self._body is not None else st.vpic  # placeholder array when unused
         if self._body is not None and flags & K.FORCE:
             flags |= K.BODY
+        flags = self._scatter_flags(flags)
+        if flags & K.CACHE:
+            self._stencil_scratch(st)
         p2g = self._ready(kern.p2g(flags))
         spin = self._ready(kern.spin_scatter) if flags & K.MASS and self._turning else None  # FLIP at a rotating wall
         window = self.is_cpu
@@ -605,6 +619,19 @@ class ExplicitSolver(Integrator):
             st.lo.zero_()
             st.hi.fill_(self.n_nodes - 1)
         return [task(c, b, e) for c, (b, e) in enumerate(st.chunks)]
+
+    def _stencil_scratch(self, st: State) -> None:
+        """Make the stored stencils' scratch (``P.stencil``) hold ``st.n`` particles: the solver's, for the
+        state it steps (valid within a step), grown when a state has more particles than it holds."""
+        if self._stencils.shape[0] < st.n:
+            self._stencils = wp.zeros(st.n, dtype=self.structs.Stencil, device=self.device)
+        if st.kernel_args.stencil is not self._stencils:
+            st.kernel_args.stencil = self._stencils
+
+    def _scatter_flags(self, flags: int) -> int:
+        """P2G kernel flags of a scatter of ``flags``: a MASS scatter keeps its stencils for the step's
+        gathers (``CACHE``) where they use the same ones (MUSL, USL; :data:`~tissuempm.mpm.kernels.CACHED_SHAPES`)."""
+        return flags | K.CACHE if self._stored_stencils and flags & K.MASS else flags
 
     def _window(self, st: State) -> tuple[int, int]:
         """Nodal records ``[start, stop)`` that the last MASS scatter touched (all on a GPU)."""
@@ -678,9 +705,12 @@ class ExplicitSolver(Integrator):
         return [task(c, b, e) for c, (b, e) in enumerate(st.chunks)]
 
     def _gather_passes(self, flags: int, shared: bool) -> list[int]:
-        """G2P kernel flags of a gather of ``flags`` (``shared``: the gradient velocity is ``v_new``)."""
+        """G2P kernel flags of a gather of ``flags`` (``shared``: the gradient velocity is ``v_new``; the
+        stencils those the step's P2G kept, ``CACHE``, where :meth:`_scatter_flags` keeps them)."""
         if flags & K.MOVE and flags & K.GRADIENT and shared:
             flags |= K.SHARED
+        if self._stored_stencils and flags & (K.MOVE | K.GRADIENT):
+            flags |= K.CACHE
         if self.reference is None:
             return [flags]
         stencil_flags = flags & ~K.POSITION
@@ -700,7 +730,8 @@ class ExplicitSolver(Integrator):
         else:
             grids = [(K.MASS | K.FORCE, K.UPDATE), (K.MOMENTUM, K.VELOCITY)]
             gathers = [(K.MOVE | K.REPROJECT, True), (K.GRADIENT | K.POSITION, False)]
-        out = [kern.p2g(f) for f, _ in grids if f & (K.MASS | K.FORCE)] + [kern.grid(f, m) for f, m in grids]
+        out = [kern.p2g(self._scatter_flags(f)) for f, _ in grids if f & (K.MASS | K.FORCE)]
+        out += [kern.grid(f, m) for f, m in grids]
         out += [kern.g2p(f) for flags, shared in gathers for f in self._gather_passes(flags, shared)]
         if self.n_fields > 1:
             modes = sorted({m for _, m in grids})
@@ -735,15 +766,16 @@ class ExplicitSolver(Integrator):
     def _gather_and_stress(self, st: State, gather: list[Callable[[], None]], dt: float) -> None:
         """One parallel section: each chunk's ``gather`` tasks, then its stress update; the history
         buffers are swapped after it. With F-bar (:mod:`tissuempm.mpm.volumetric`) the cell averages
-        of the volume change need every chunk's gather: two sections, the cell sums between them.
-        Tracked peaks (:mod:`tissuempm.mpm.tracking`) follow each chunk's stress update."""
+        of the volume change need every chunk's gather: two sections, the cell sums between them (the
+        stress kernels apply the cell factors). Tracked peaks (:mod:`tissuempm.mpm.tracking`) follow each
+        chunk's stress update."""
         track = [self.tracker.tasks(st, dt)] if self.tracker is not None else []
         if self.volumetric is None:
             self._per_chunk(gather, self._constitutive(st, dt), *track)
         else:
             self._per_chunk(gather, self.volumetric.measure_tasks(st, dt))
             self.volumetric.average(st)
-            self._per_chunk(self.volumetric.tasks(st, dt), self._constitutive(st, dt), *track)
+            self._per_chunk(self._constitutive(st, dt), *track)
         st.history, st.history_next = st.history_next, st.history
 
     def _constitutive(self, st: State, dt: float) -> list[Callable[[], None]]:
@@ -752,7 +784,7 @@ class ExplicitSolver(Integrator):
         self._fill(st, "speed", 0)
         S = self.step_args
         S.dt = self.t.scalar(dt)
-        args = [st.kernel_args, self.grid_args, S]
+        args = [st.kernel_args, self.grid_args, S, self._cells]
 
         def task(c: int, b: int, e: int) -> Callable[[], None]:
             def run() -> None:

@@ -78,12 +78,14 @@ accumulated factor c: spurious shear.
 
 Cost: a pass per chunk after the gather (each particle's table key, its share and dJ), the sums
 (on the CPU every thread scans the particles' keys and adds those of its own range of table
-entries, so no two threads add to one entry; on a GPU one launch with atomic adds) and a pass per
-chunk that applies the factor before the stress update. Measured (docs/mpm.md, same run): 1.14 x / 1.23 x the
+entries, so no two threads add to one entry; on a GPU one launch with atomic adds); the factor is
+applied in the stress kernels, which read F and L anyway (until issue 23 a pass of its own that
+read and wrote both). Measured with that pass (docs/mpm.md, same run): 1.14 x / 1.23 x the
 cost of a neo-Hookean step on one / two threads, 1.10 x / 1.11 x of a Weiss-with-failure step.
 """
 
 import functools
+from types import SimpleNamespace
 from typing import Any
 
 import warp as wp
@@ -94,15 +96,60 @@ from tissuempm.precision import WarpTypes, kernel
 
 
 @functools.cache
+def fbar_cells(t: WarpTypes, total: bool) -> SimpleNamespace:
+    """What applying the cell factor reads, for types ``t`` and the ``total`` or incremental form:
+
+    ``Cells``
+        Warp struct of each particle's table index ``key`` (-1: it takes no part) and volume change ``dJ``
+        (``measure``'s) and the table of cell sums ``table`` (entries ``share``), one per pass
+        (:class:`CellAverage`); the stress kernels take it (:func:`tissuempm.mpm.kernels.material_kernels`).
+    ``share``
+        The table's entry type (V0 J, V0 J^n[, V0]): V0 is read by the total average only.
+    ``factor(C, p, F, L, dt) -> (F, L)``
+        Particle ``p``'s trial F and L with its cell's factor (step 2 of the module docstring):
+        F <- (Jbar / J)^(1/3) F (total) or (dJbar / dJ)^(1/3) F (incremental), L <- L + ln(dJbar / dJ)/(3 dt) I;
+        unchanged when ``key`` is -1.
+    """
+    s, mat33 = t.scalar, t.mat33
+    TOT = bool(total)
+    share_t = wp.types.vector(3 if TOT else 2, s)
+
+    @wp.struct
+    class Cells:
+        key: wp.array(dtype=wp.int32)
+        dJ: wp.array(dtype=s)
+        table: wp.array(dtype=share_t)
+
+    @wp.func
+    def factor(C: Cells, p: int, F: mat33, L: mat33, dt: s):
+        Fo = F
+        Lo = L
+        k = int(C.key[p])
+        if k >= 0:
+            sums = C.table[k]
+            rate = sums[0] / (sums[1] * C.dJ[p])  # dJbar / dJ
+            ratio = rate
+            if wp.static(TOT):
+                ratio = sums[0] / (sums[2] * wp.determinant(F))  # Jbar / J
+            Fo = wp.pow(ratio, s(1.0) / s(3.0)) * F
+            Lo = L + (wp.log(rate) / (s(3.0) * dt)) * wp.identity(n=3, dtype=s)
+        return Fo, Lo
+
+    return SimpleNamespace(Cells=Cells, share=share_t, factor=factor)
+
+
+@functools.cache
 def fbar_kernels(t: WarpTypes, n_fields: int, total: bool = True) -> Any:
     """``measure``, ``accumulate`` and ``apply`` kernels of the F-bar pass for types ``t`` and
     ``n_fields`` velocity fields (the table is indexed ``cell * n_fields + field``; its entries
-    (V0 J, V0 J^n, V0) give Jbar and dJbar)."""
+    (V0 J, V0 J^n, V0) give Jbar and dJbar). The solver applies the factor in its stress kernels
+    (:func:`fbar_cells`); ``apply`` is the pass on its own (:meth:`CellAverage.tasks`)."""
     s, vec3, mat33 = t.scalar, t.vec3, t.mat33
     NF = n_fields
     FAILED = float(FailureMode.BOTH)
     TOT = bool(total)  # False: the incremental average (3-D models, see the module docstring)
-    share_t = wp.types.vector(3 if TOT else 2, s)  # V0 is read by the total average only
+    cells = fbar_cells(t, TOT)
+    share_t, factor = cells.share, cells.factor
 
     @kernel
     def measure(
@@ -171,27 +218,14 @@ def fbar_kernels(t: WarpTypes, n_fields: int, total: bool = True) -> Any:
             wp.atomic_add(table, k, share[p])
 
     @kernel
-    def apply(
-        F: wp.array(dtype=mat33),
-        L: wp.array(dtype=mat33),
-        key: wp.array(dtype=wp.int32),
-        dJ: wp.array(dtype=s),
-        dt: s,
-        table: wp.array(dtype=share_t),
-        begin: int,
-    ):
-        """F <- (Jbar/J)^(1/3) F and L <- L + ln(dJbar/dJ)/(3 dt) I for
-        particles ``begin + tid``."""
+    def apply(F: wp.array(dtype=mat33), L: wp.array(dtype=mat33), C: cells.Cells, dt: s, begin: int):
+        """F <- (Jbar/J)^(1/3) F and L <- L + ln(dJbar/dJ)/(3 dt) I for particles ``begin + tid``
+        (``factor``; those with key -1 are left as they are)."""
         p = begin + wp.tid()
-        k = int(key[p])
-        if k >= 0:
-            sums = table[k]
-            rate = sums[0] / (sums[1] * dJ[p])  # dJbar / dJ
-            ratio = rate
-            if wp.static(TOT):
-                ratio = sums[0] / (sums[2] * wp.determinant(F[p]))  # Jbar / J
-            F[p] = wp.pow(ratio, s(1.0) / s(3.0)) * F[p]
-            L[p] = L[p] + (wp.log(rate) / (s(3.0) * dt)) * wp.identity(n=3, dtype=s)
+        if C.key[p] >= 0:
+            Fn, Ln = factor(C, p, F[p], L[p], dt)
+            F[p] = Fn
+            L[p] = Ln
 
     return measure, accumulate, apply
 
@@ -206,8 +240,9 @@ class CellAverage:
         the rigid-material flags are read).
 
     The step runs ``measure`` per chunk in the gather's parallel section (:meth:`measure_tasks`),
-    then :meth:`average` (each CPU thread sums the particles of its own range of table entries),
-    then ``apply`` per chunk before the stress update (:meth:`tasks`).
+    then :meth:`average` (each CPU thread sums the particles of its own range of table entries);
+    each law's stress kernel then applies the factor to its particles (``factor`` of :func:`fbar_cells`,
+    from ``cells``) before their stress update, and keeps the modified F and L.
     """
 
     def __init__(self, solver: Any):
@@ -216,17 +251,20 @@ class CellAverage:
         # "fbar": the total average in the meridian plane, the incremental one in 3-D (module docstring)
         total = solver.anti_locking == "fbar_total" or (solver.anti_locking == "fbar" and bool(solver.axisymmetric))
         self.form = "total" if total else "incremental"
-        self.entry = wp.types.vector(3 if total else 2, t.scalar)  # (V0 J, V0 J^n[, V0])
+        cells = fbar_cells(t, total)
+        self.entry = cells.share  # (V0 J, V0 J^n[, V0])
         self.measure, self.accumulate, self.apply = fbar_kernels(t, solver.n_fields, total)
         dims = solver.model.grid.shape
         self.n_entries = dims[0] * dims[1] * dims[2] * solver.n_fields
         self.table = wp.zeros(self.n_entries, dtype=self.entry, device=solver.device)
+        self.cells = cells.Cells()  # what the stress kernels read to apply the factor (key, dJ: _scratch)
+        self.cells.table = self.table
         self.failure_slot = wp.array(failure_slots(solver.model.materials), dtype=wp.int32, device=solver.device)
         self._n = -1
 
     def kernels(self) -> list[Any]:
-        """The kernels the pass launches."""
-        return [self.measure, self.accumulate, self.apply]
+        """The kernels the pass launches in a step (the stress kernels apply the factor)."""
+        return [self.measure, self.accumulate]
 
     def _scratch(self, st: Any) -> None:
         """Per-particle key, share and dJ arrays for ``st.n`` particles (reallocated when it changes)."""
@@ -235,6 +273,7 @@ class CellAverage:
             self.key = wp.zeros(st.n, dtype=wp.int32, device=dev)
             self.share = wp.zeros(st.n, dtype=self.entry, device=dev)
             self.dJ = wp.zeros(st.n, dtype=self.solver.t.scalar, device=dev)
+            self.cells.key, self.cells.dJ = self.key, self.dJ
             self._n = st.n
 
     def measure_tasks(self, st: Any, dt: float) -> list[Any]:
@@ -265,10 +304,11 @@ class CellAverage:
         sv._parallel([task(i) for i in range(parts)])
 
     def tasks(self, st: Any, dt: float) -> list[Any]:
-        """Per chunk: apply the cell factor to the chunk's particles (before their stress update)."""
+        """Per chunk: apply the cell factor to the chunk's particles, a pass on its own (a step applies it
+        in the stress kernels, :func:`tissuempm.mpm.kernels.material_kernels`, which read ``cells``)."""
         sv = self.solver
         kern = sv._ready(self.apply)
-        args = [st.F, st.L, self.key, self.dJ, sv.t.scalar(dt), self.table]
+        args = [st.F, st.L, self.cells, sv.t.scalar(dt)]
 
         def task(c: int, b: int, e: int) -> Any:
             return lambda: sv._launch(kern, e - b, [*args, b], c)
