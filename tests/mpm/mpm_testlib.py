@@ -86,3 +86,24 @@ def block(lower, upper, spacing, material=0, **kw) -> ParticleData:
     x = lattice(lower, upper, spacing)
     sp = np.broadcast_to(np.asarray(spacing, float), 3)
     return ParticleData(x=x, volume=float(np.prod(sp)), size=sp, material=material, **kw)
+
+
+def free_plate_toml(name: str) -> str:
+    """Scenario TOML (up to its loads) of a free linear-elastic plate ``name`` (E 1 GPa, nu 0.3,
+    1000 kg/m^3), 4 x 20 x 20 mm with its x = 0 face at the origin, on a 2 mm grid (1 mm particles,
+    lattice-aligned): the body the surface-load tests push on its x = 0 face."""
+    return f"""
+[grid]
+lower = ["-10 mm", "-20 mm", "-20 mm"]
+upper = ["20 mm", "20 mm", "20 mm"]
+cell_size = "2 mm"
+[materials.{name}]
+kind = "linear_elastic"
+E = "1 GPa"
+nu = 0.3
+density = "1000 kg/m^3"
+[[body]]
+name = "{name}"
+material = "{name}"
+shape = {{ type = "box", lower = [0, "-10 mm", "-10 mm"], upper = ["4 mm", "10 mm", "10 mm"] }}
+"""

@@ -41,12 +41,13 @@ def _pass_setup(n_cells: int = 3):
 
 
 def _fbar_pass(solver, st, dt: float) -> None:
-    """The solver's F-bar pass on the state's current (trial) F and L: measure, cell sums, apply."""
+    """The solver's F-bar pass on the state's current (trial) F and L: measure, cell sums, then the
+    stress pass, whose kernels apply each cell's factor to F and L (and update the stress)."""
     fb = solver.volumetric
     for task in fb.measure_tasks(st, dt):
         task()
     fb.average(st)
-    for task in fb.tasks(st, dt):
+    for task in solver._constitutive(st, dt):
         task()
 
 

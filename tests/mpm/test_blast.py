@@ -7,6 +7,7 @@ import tomllib
 
 import numpy as np
 import pytest
+from mpm_testlib import free_plate_toml
 from scipy import integrate
 
 from tissuempm.mpm import ExplicitSolver, blast
@@ -154,20 +155,7 @@ def test_net_blast_force_on_a_sphere(reflection, expected):
     solver.close()
 
 
-PLATE = """
-[grid]
-lower = ["-10 mm", "-20 mm", "-20 mm"]
-upper = ["20 mm", "20 mm", "20 mm"]
-cell_size = "2 mm"
-[materials.plate]
-kind = "linear_elastic"
-E = "1 GPa"
-nu = 0.3
-density = "1000 kg/m^3"
-[[body]]
-name = "plate"
-material = "plate"
-shape = { type = "box", lower = [0, "-10 mm", "-10 mm"], upper = ["4 mm", "10 mm", "10 mm"] }
+PLATE = free_plate_toml("plate") + """
 [[blast]]
 bodies = ["plate"]
 peak = "100 kPa"

@@ -9,6 +9,7 @@ import tomllib
 
 import numpy as np
 import pytest
+from mpm_testlib import free_plate_toml
 from typer.testing import CliRunner
 
 from tissuempm.cli import app
@@ -19,20 +20,7 @@ from tissuempm.scenarios.build import build
 from tissuempm.scenarios.schema import Scenario, ScenarioError
 
 # a free 4 x 20 x 20 mm block, lattice-aligned (1 mm particles), pushed on its x = 0 face along +x
-BLOCK = """
-[grid]
-lower = ["-10 mm", "-20 mm", "-20 mm"]
-upper = ["20 mm", "20 mm", "20 mm"]
-cell_size = "2 mm"
-[materials.block]
-kind = "linear_elastic"
-E = "1 GPa"
-nu = 0.3
-density = "1000 kg/m^3"
-[[body]]
-name = "block"
-material = "block"
-shape = { type = "box", lower = [0, "-10 mm", "-10 mm"], upper = ["4 mm", "10 mm", "10 mm"] }
+BLOCK = free_plate_toml("block") + """
 [[surface_force]]
 bodies = ["block"]
 centre = [0, 0, 0]

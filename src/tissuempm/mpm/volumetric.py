@@ -140,16 +140,14 @@ def fbar_cells(t: WarpTypes, total: bool) -> SimpleNamespace:
 
 @functools.cache
 def fbar_kernels(t: WarpTypes, n_fields: int, total: bool = True) -> Any:
-    """``measure``, ``accumulate`` and ``apply`` kernels of the F-bar pass for types ``t`` and
-    ``n_fields`` velocity fields (the table is indexed ``cell * n_fields + field``; its entries
-    (V0 J, V0 J^n, V0) give Jbar and dJbar). The solver applies the factor in its stress kernels
-    (:func:`fbar_cells`); ``apply`` is the pass on its own (:meth:`CellAverage.tasks`)."""
+    """``measure`` and ``accumulate`` kernels of the F-bar pass for types ``t`` and ``n_fields``
+    velocity fields (the table is indexed ``cell * n_fields + field``; its entries (V0 J, V0 J^n, V0)
+    give Jbar and dJbar). The stress kernels apply the factor (``factor`` of :func:`fbar_cells`)."""
     s, vec3, mat33 = t.scalar, t.vec3, t.mat33
     NF = n_fields
     FAILED = float(FailureMode.BOTH)
     TOT = bool(total)  # False: the incremental average (3-D models, see the module docstring)
-    cells = fbar_cells(t, TOT)
-    share_t, factor = cells.share, cells.factor
+    share_t = fbar_cells(t, TOT).share
 
     @kernel
     def measure(
@@ -217,17 +215,7 @@ def fbar_kernels(t: WarpTypes, n_fields: int, total: bool = True) -> Any:
         if k >= lo and k < hi:
             wp.atomic_add(table, k, share[p])
 
-    @kernel
-    def apply(F: wp.array(dtype=mat33), L: wp.array(dtype=mat33), C: cells.Cells, dt: s, begin: int):
-        """F <- (Jbar/J)^(1/3) F and L <- L + ln(dJbar/dJ)/(3 dt) I for particles ``begin + tid``
-        (``factor``; those with key -1 are left as they are)."""
-        p = begin + wp.tid()
-        if C.key[p] >= 0:
-            Fn, Ln = factor(C, p, F[p], L[p], dt)
-            F[p] = Fn
-            L[p] = Ln
-
-    return measure, accumulate, apply
+    return measure, accumulate
 
 
 class CellAverage:
@@ -253,7 +241,7 @@ class CellAverage:
         self.form = "total" if total else "incremental"
         cells = fbar_cells(t, total)
         self.entry = cells.share  # (V0 J, V0 J^n[, V0])
-        self.measure, self.accumulate, self.apply = fbar_kernels(t, solver.n_fields, total)
+        self.measure, self.accumulate = fbar_kernels(t, solver.n_fields, total)
         dims = solver.model.grid.shape
         self.n_entries = dims[0] * dims[1] * dims[2] * solver.n_fields
         self.table = wp.zeros(self.n_entries, dtype=self.entry, device=solver.device)
@@ -302,15 +290,3 @@ class CellAverage:
                                       ("fbar", i))
 
         sv._parallel([task(i) for i in range(parts)])
-
-    def tasks(self, st: Any, dt: float) -> list[Any]:
-        """Per chunk: apply the cell factor to the chunk's particles, a pass on its own (a step applies it
-        in the stress kernels, :func:`tissuempm.mpm.kernels.material_kernels`, which read ``cells``)."""
-        sv = self.solver
-        kern = sv._ready(self.apply)
-        args = [st.F, st.L, self.cells, sv.t.scalar(dt)]
-
-        def task(c: int, b: int, e: int) -> Any:
-            return lambda: sv._launch(kern, e - b, [*args, b], c)
-
-        return [task(c, b, e) for c, (b, e) in enumerate(st.chunks)]
