@@ -13,6 +13,10 @@ The body's velocity along the slope is fitted with a straight line over the seco
 
     python benchmarks/contact_drag.py                       # disk and box, h = 2.5 mm and 1.25 mm
     python benchmarks/contact_drag.py --body disk --h 2.5e-3 --separation node --stiffness 10
+    python benchmarks/contact_drag.py --body disk --rotates --mu 0.5 --body-ppc 4 --t-end 0.1   # rolling: 2/3
+
+A rotating disk also reports ``roll_ratio``, R times the angle turned over the distance rolled in the
+same second half (1 without slip).
 """
 
 import argparse
@@ -54,6 +58,7 @@ class Slide:
     body_density: float = 1000.0
     mu: float = 0.0
     rotates: bool = False
+    body_ppc: int = 2  # the body's particles per cell along each in-plane axis (the slab's: 2)
     separation: str = "gap"
     flip: float = 0.99
     damping: float = 0.0
@@ -61,25 +66,28 @@ class Slide:
 
 
 def particles(c: Slide) -> ParticleData:
-    """Slab (material 0, field 1) and body (material 1, field 0), 2 x 2 particles per cell in the plane,
-    one through the plane-strain thickness h."""
-    d = 0.5 * c.h
+    """Slab (material 0, field 1; 2 x 2 particles per cell in the plane) and body (material 1, field 0;
+    ``body_ppc`` x ``body_ppc``), one particle through the plane-strain thickness h."""
+    if not (isinstance(c.body_ppc, int) and c.body_ppc >= 1):
+        raise ValueError(f"Slide.body_ppc = {c.body_ppc!r}: must be an integer >= 1")
 
-    def grid_points(x0: float, x1: float, y0: float, y1: float) -> np.ndarray:
+    def grid_points(x0: float, x1: float, y0: float, y1: float, d: float) -> np.ndarray:
         xs = x0 + (np.arange(int(round((x1 - x0) / d))) + 0.5) * d
         ys = y0 + (np.arange(int(round((y1 - y0) / d))) + 0.5) * d
         X, Y = np.meshgrid(xs, ys, indexing="ij")
         return np.stack([X.ravel(), Y.ravel(), np.full(X.size, 0.5 * c.h)], axis=1)
 
-    slab = grid_points(0.0, c.length, 0.0, c.slab)
+    d, e = 0.5 * c.h, c.h / c.body_ppc  # particle spacings: slab, body
+    slab = grid_points(0.0, c.length, 0.0, c.slab, d)
     x0 = 0.25 * c.length
     if c.body == "disk":
-        body = grid_points(x0 - c.R, x0 + c.R, c.slab, c.slab + 2 * c.R)
+        body = grid_points(x0 - c.R, x0 + c.R, c.slab, c.slab + 2 * c.R, e)
         body = body[np.hypot(body[:, 0] - x0, body[:, 1] - c.slab - c.R) < c.R]
     else:
-        body = grid_points(x0 - c.R, x0 + c.R, c.slab, c.slab + c.R)
+        body = grid_points(x0 - c.R, x0 + c.R, c.slab, c.slab + c.R, e)
     n_s, n_b = len(slab), len(body)
-    return ParticleData(x=np.vstack([slab, body]), volume=d * d * c.h, size=(d, d, c.h),
+    size = np.vstack([np.tile([d, d, c.h], (n_s, 1)), np.tile([e, e, c.h], (n_b, 1))])
+    return ParticleData(x=np.vstack([slab, body]), volume=size.prod(axis=1), size=size,
                         material=np.r_[np.zeros(n_s, int), np.ones(n_b, int)],
                         field=np.r_[np.ones(n_s, int), np.zeros(n_b, int)])  # fmt: skip
 
@@ -101,22 +109,33 @@ def run(c: Slide) -> dict[str, float]:
     s = ExplicitSolver(model, cfg)
     try:
         st = s.initial_state(particles(c))
-        t, vx, vy, y = [], [], [], []
+        t, vx, vy, y, x, phi = [], [], [], [], [], [0.0]
         while st.time < c.t_end:
+            t0 = st.time
             s.step(st)
             body = st.material.numpy() == 1  # particles are re-sorted every sort_interval steps
             v = st.v.numpy()[body]
+            xb = st.x.numpy()[body]
             t.append(st.time)
             vx.append(float(v[:, 0].mean()))
             vy.append(float(v[:, 1].mean()))
-            y.append(float(st.x.numpy()[body][:, 1].min()))
+            y.append(float(xb[:, 1].min()))
+            x.append(float(xb[:, 0].mean()))
+            if c.rotates:  # the angle turned, - int omega_z dt (clockwise, rolling down the slope, > 0)
+                phi.append(phi[-1] - (st.time - t0) * float(s.free.angular_velocity(1)[2]))
     finally:
         s.close()
-    t_a, vx_a = np.array(t), np.array(vx)
+    t_a, vx_a, x_a, phi_a = np.array(t), np.array(vx), np.array(x), np.array(phi[1:])
     late = t_a >= 0.5 * c.t_end
     a = float(np.polyfit(t_a[late], vx_a[late], 1)[0])
-    return {"a_over_g_sin": a / (G * math.sin(th)), "v_end": vx[-1], "vy_rms_late": float(np.sqrt(np.mean(
-        np.square(vy)[late]))), "sink_cells": (c.slab + 0.25 * c.h - y[-1]) / c.h, "steps": st.step}  # fmt: skip
+    a_x = float(2.0 * np.polyfit(t_a[late], x_a[late], 2)[0])
+    i0 = int(np.argmax(late))
+    out = {"a_over_g_sin": a / (G * math.sin(th)), "a_x_over_g_sin": a_x / (G * math.sin(th)), "v_end": vx[-1],
+           "vy_rms_late": float(np.sqrt(np.mean(np.square(vy)[late]))),
+           "sink_cells": (c.slab + 0.5 * c.h / c.body_ppc - y[-1]) / c.h, "steps": st.step}  # fmt: skip
+    if c.rotates and c.body == "disk":  # R times the angle turned over the distance rolled: 1 without slip
+        out["roll_ratio"] = float(c.R * (phi_a[-1] - phi_a[i0]) / (x_a[-1] - x_a[i0]))
+    return out
 
 
 def main() -> None:
@@ -129,13 +148,14 @@ def main() -> None:
     p.add_argument("--body-density", type=float, default=1000.0, help="of the rigid body [kg/m^3] (slab: 1000)")
     p.add_argument("--mu", type=float, default=0.0)
     p.add_argument("--rotates", action="store_true")
+    p.add_argument("--body-ppc", type=int, default=2, help="the body's particles per cell along x and y (slab: 2)")
     p.add_argument("--flip", type=float, default=0.99)
     p.add_argument("--damping", type=float, default=0.0)
     p.add_argument("--t-end", type=float, default=0.04)
     args = p.parse_args()
     common = dict(theta=args.theta, C10=100e3 * args.stiffness, K=1e6 * args.stiffness, separation=args.separation,
-                  body_density=args.body_density, mu=args.mu, rotates=args.rotates, flip=args.flip,
-                  damping=args.damping, t_end=args.t_end)  # fmt: skip
+                  body_density=args.body_density, mu=args.mu, rotates=args.rotates, body_ppc=args.body_ppc,
+                  flip=args.flip, damping=args.damping, t_end=args.t_end)  # fmt: skip
     for body in args.body:
         for h in args.h:
             c = Slide(body=body, h=h, **common)  # type: ignore[arg-type]
