@@ -90,3 +90,25 @@ def test_override_values_are_validated_like_the_file(tmp_path):
     assert load_scenario(path, ["solver.cfl=0.5"]).solver.cfl == 0.5
     with pytest.raises(ScenarioError, match="solver.cfl"):
         load_scenario(path, ["solver.cfl=2"])
+
+
+def test_an_override_reaches_the_inner_law_of_a_library_failure_layer():
+    """``--set 'materials.gel.base.yield_stress="2.2 MPa"'`` on a library failure layer (the ballistic
+    gelatin card: erosion at eqps 0.9 around an elastic-plastic base) changes the base's yield stress only,
+    in the file's units; the criterion, the limit and the base's other parameters stay the library's;
+    a bad inner value is named with its range; a table with ``kind`` replaces the inner law (and is checked
+    against the layer's criterion)."""
+    from tissuempm import library
+
+    data = copy.deepcopy(BASE)
+    data["materials"] = {"gel": {"library": "ballistic_gelatin"}}
+    data["body"][0]["material"] = "gel"
+    card = library.get("ballistic_gelatin").material
+    gel = Scenario.from_dict(apply_overrides(data, ['materials.gel.base.yield_stress="2.2 MPa"'])).build_materials()[0]
+    assert gel.base.yield_stress == pytest.approx(2.2e6) and card.base.yield_stress == pytest.approx(0.22e6)
+    assert gel.replace(base=card.base) == card
+    with pytest.raises(ScenarioError, match=r"materials.gel: ElasticPlastic.yield_stress = -2000000.0 is out of range"):
+        Scenario.from_dict(apply_overrides(data, ['materials.gel.base.yield_stress="-2 MPa"']))
+    swapped = apply_overrides(data, ['materials.gel.base={kind="neo_hookean", C10="1 kPa", K="1 MPa"}'])
+    with pytest.raises(ScenarioError, match="base NeoHookean has no equivalent plastic strain"):
+        Scenario.from_dict(swapped)  # replaced, and checked against the layer's criterion

@@ -907,11 +907,27 @@ def _law(data: dict[str, Any]) -> Any:
         base = library.get(rest.pop("library")).material
         if "kind" in rest and rest.pop("kind") != base.kind:
             raise ParameterError(f"kind does not match the library material's kind {base.kind!r}")
-        return base.replace(**_material_values(type(base), rest)) if rest else base
+        return _overridden(base, rest)
     if "kind" not in rest:
         raise ParameterError("needs 'kind' (a material law or 'rigid') or 'library' (a tissue name)")
     kind = rest.pop("kind")
     return from_dict({"kind": kind, **_material_values(get_material_class(kind), rest)})
+
+
+def _overridden(material: Any, values: dict[str, Any]) -> Any:
+    """``material`` with the parameters in ``values`` replaced (units converted, validated again).
+
+    A table without ``kind`` or ``library`` under the name of a composed law's inner law overrides that
+    law's parameters in place: ``base = {yield_stress = "2.2 MPa"}`` on a library failure layer keeps its
+    elastic-plastic base and changes only the yield stress (a table with ``kind`` replaces the inner law).
+    """
+    from tissuempm.materials import Material
+
+    nested = {key: _overridden(getattr(material, key), value) for key, value in values.items()
+              if isinstance(value, dict) and "kind" not in value and "library" not in value
+              and isinstance(getattr(material, key, None), Material)}  # fmt: skip
+    flat = {key: value for key, value in values.items() if key not in nested}
+    return material.replace(**_material_values(type(material), flat), **nested) if values else material
 
 
 def _material_values(cls: type, data: dict[str, Any]) -> dict[str, Any]:
