@@ -75,7 +75,9 @@ class HistoryLog:
         v = np.asarray(data["v"], float)
         R = np.asarray(data.get("reaction", np.zeros_like(v)), float)
         fixed = np.asarray(data.get("fixed", np.zeros(len(m), bool)), bool)
-        out = [float(data["time"]), int(data["step"]), 0.5 * float(np.sum(m * np.sum(v * v, axis=1)))]
+        with np.errstate(over="ignore"):  # an overflowed velocity gives inf; the run stops and says why
+            kinetic = 0.5 * float(np.sum(m * np.sum(v * v, axis=1)))
+        out = [float(data["time"]), int(data["step"]), kinetic]
         out += list((m[:, None] * v).sum(axis=0))
         out.append(float(np.sum(np.asarray(data.get("work", np.zeros(len(m))))[deform])))
         out.append(float(np.sum(np.asarray(data.get("bulk_work", np.zeros(len(m)))))))

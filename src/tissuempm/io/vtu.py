@@ -135,7 +135,8 @@ def _stored(a: np.ndarray, n: int, real: type) -> np.ndarray:
     """``a`` as written: (n,) or (n, k) little-endian, floating point as ``real``, booleans as uint8."""
     a = np.asarray(a)
     if a.dtype.kind == "f":
-        a = a.astype(real, copy=False)
+        with np.errstate(over="ignore"):  # a value beyond float32 is written as inf: the run reports why
+            a = a.astype(real, copy=False)
     elif a.dtype == bool:
         a = a.astype(np.uint8)
     if f"{a.dtype.kind}{a.dtype.itemsize}" not in _VTK_TYPES:
