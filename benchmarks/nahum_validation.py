@@ -180,7 +180,9 @@ def figure(run: Path, res: dict, path: Path, cutoff: float) -> None:
 
     hist = read_history(run)
     t = hist["time"] * 1e3
-    force, _, source = impact_force(hist, json.loads((run / "scenario.json").read_text()))
+    scenario = json.loads((run / "scenario.json").read_text())
+    force, _, source = impact_force(hist, scenario)
+    cell_mm = 1e3 * float(scenario["grid"]["cell_size"])
     pub = res["published"]
     fig, (ax0, ax1) = plt.subplots(2, 1, figsize=(7.5, 7.0), sharex=True)
     ax0.plot(t, force / 1e3, color="0.75", lw=0.8, label=f"model, raw ({source})")
@@ -202,7 +204,7 @@ def figure(run: Path, res: dict, path: Path, cutoff: float) -> None:
     ax1.set_ylabel("pressure [kPa]")
     ax1.legend(fontsize=7, ncol=2, loc="lower left")
     load = "padded impactor" if source == "impactor reaction" else "force pulse on the scalp"
-    fig.suptitle(f"Nahum et al. 1977 exp. 37 vs tissuempm (ICBM head, 8 mm cells, half model, {load})", fontsize=10)
+    fig.suptitle(f"Nahum et al. 1977 exp. 37 vs tissuempm (ICBM head, {cell_mm:g} mm cells, half model, {load})", fontsize=10)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=130)
