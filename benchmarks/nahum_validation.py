@@ -204,7 +204,8 @@ def figure(run: Path, res: dict, path: Path, cutoff: float) -> None:
     ax1.set_ylabel("pressure [kPa]")
     ax1.legend(fontsize=7, ncol=2, loc="lower left")
     load = "padded impactor" if source == "impactor reaction" else "force pulse on the scalp"
-    fig.suptitle(f"Nahum et al. 1977 exp. 37 vs tissuempm (ICBM head, {cell_mm:g} mm cells, half model, {load})", fontsize=10)
+    title = f"Nahum et al. 1977 exp. 37 vs tissuempm (ICBM head, {cell_mm:g} mm cells, half model, {load})"
+    fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=130)
