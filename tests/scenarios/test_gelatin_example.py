@@ -30,7 +30,10 @@ def test_gelatin_sphere_coarse_run(tmp_path):
     assert result.status == "completed"
     h = HistoryLog(tmp_path / HISTORY, {}).read()
     v = h["velocity_sphere_y"]
-    assert v[0] == pytest.approx(180.0) and np.all(np.diff(v) <= 1e-9) and v[-1] < 150.0  # drag slows it
+    assert v[0] == pytest.approx(180.0) and v[-1] < 150.0  # drag slows it
+    # the gel closing in behind the sphere may push on its rear (pure FLIP keeps that recoil: +0.06 m/s once
+    # at these 2 mm cells), but the drag dominates: never a gain of more than 0.1 % of the impact speed
+    assert np.all(np.diff(v) < 0.18)
     assert np.all(np.diff(h["position_sphere_y"]) > 0)  # still penetrating at 0.2 ms
     summary = json.loads((tmp_path / "summary.json").read_text())
     gel_mass = 1030.0 * pd.volume[~sphere].sum()
@@ -72,6 +75,28 @@ def test_gelatin_sphere_axisymmetric_coarse_run(tmp_path):
     gel_mass = 2 * np.pi * 1030.0 * pd.volume[~sphere].sum()
     left, removed = summary["diagnostics"]["mass"], summary["removed"]
     assert left + removed["eroded"]["mass"] + removed["outflow"]["mass"] == pytest.approx(gel_mass, rel=1e-12)
+
+
+def _speed_loss(overrides: list[str], out: Path) -> float:
+    """The axisymmetric example at 1 mm cells to 0.15 ms with ``overrides``: the sphere's loss of speed [m/s]."""
+    data = apply_overrides(tomllib.loads(AXI.read_text()),
+                           ['grid.cell_size="1 mm"', 'run.end_time="0.15 ms"', 'run.output_interval="0.15 ms"',
+                            *overrides])  # fmt: skip
+    assert Runner(Scenario.from_dict(data), out).run().status == "completed"
+    return 180.0 - float(HistoryLog(out / HISTORY, {}).read()["velocity_sphere_y"][-1])
+
+
+def test_gelatin_sphere_drag_does_not_depend_on_the_time_step(tmp_path):
+    """With the example's pure FLIP (``flip = 1.0``), halving the CFL number changes the sphere's loss of
+    speed over the first 0.15 ms (about 80 of 180 m/s) by 2.1 %: the time discretisation is not what sets
+    the drag. Bound 4 %. The solver's default ``flip = 0.99`` fails it (7.7 %, and 23 % off the 1 mm depth
+    over the whole shot): its 1 % PIC share each step is a viscosity of 0.01 h^2 / (4 dt), which
+    doubles when dt halves (docs/validation.md, "The FLIP/PIC blend is a viscosity")."""
+    assert tomllib.loads(AXI.read_text())["solver"]["flip"] == 1.0
+    coarse = _speed_loss([], tmp_path / "cfl_0.3")
+    fine = _speed_loss(["solver.cfl=0.15"], tmp_path / "cfl_0.15")
+    assert 60.0 < coarse < 100.0  # the sphere is well into the block
+    assert fine == pytest.approx(coarse, rel=0.04)
 
 
 def test_axisymmetric_scenario_errors_are_named():

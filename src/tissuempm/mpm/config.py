@@ -79,7 +79,10 @@ class SolverConfig:
         ``"usl"``, ``"musl"`` (default) or ``"usf"``.
     flip
         FLIP fraction of the particle velocity update in [0, 1]: 1 is pure FLIP
-        (v_p += sum w_ip dv_i), 0 is pure PIC (v_p = sum w_ip v_i). Default 0.99.
+        (v_p += sum w_ip dv_i), 0 is pure PIC (v_p = sum w_ip v_i). Default 0.99. The PIC share
+        is a numerical viscosity nu = (1 - flip) h^2 / (4 dt) (uGIMP, one particle per cell), growing
+        with h and with the number of steps: in penetration it sets the drag (the gelatin examples
+        run 1.0; docs/mpm.md, "Anti-locking").
     cfl
         Courant number in (0, 1]: dt = cfl h / max_p(c_p + |v_p|) (Ionescu et al. 2006 eqs 9-11).
     precision
