@@ -36,6 +36,7 @@ import tempfile
 import time
 import tomllib
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -44,16 +45,23 @@ EXAMPLE = ROOT / "examples/gelatin_sphere_axisymmetric.toml"
 RECORDS = ROOT / "benchmarks/results/gelatin_drag.jsonl"
 FIGURE = ROOT / "docs/figures/gelatin_drag.png"
 RADIUS, NOSE0 = 2.25e-3, -0.25e-3  # the sphere's radius and its nose at t = 0 [m] (centre at -2.5 mm)
-RHO, G, K, Y = 1030.0, 0.85e6, 2256112000.0, 0.22e6  # the card (src/tissuempm/library/data/gelatin.toml)
 WINDOW = (15e-3, 30e-3)  # nose depths [m] over which the drag is averaged
+
+
+def card() -> Any:
+    """The library card's law without erosion (``ballistic_gelatin``, alternative ``elastic_plastic``)."""
+    from tissuempm import library
+
+    return library.get("ballistic_gelatin").alternative("elastic_plastic")
 
 
 def overrides(speed: float) -> list[str]:
     """The example turned into the drag test (``--set`` syntax of ``tissuempm run``)."""
+    m = card()
     return [
         'solver.anti_locking="fbar"', "solver.flip=1.0",
-        f'materials.gelatin={{kind="elastic_plastic", K="{K:.0f} Pa", G="0.85 MPa", yield_stress="0.22 MPa", '
-        'hardening="1 kPa", density="1030 kg/m^3"}',
+        f'materials.gelatin={{kind="elastic_plastic", K="{m.K!r} Pa", G="{m.G!r} Pa", '
+        f'yield_stress="{m.yield_stress!r} Pa", hardening="{m.hardening!r} Pa", density="{m.density!r} kg/m^3"}}',
         f'materials.sphere={{kind="rigid", density="7850 kg/m^3", velocity=[0, "{speed:g} m/s", 0]}}',
         'run.end_time="3 ms"',
     ]  # fmt: skip
@@ -61,11 +69,13 @@ def overrides(speed: float) -> list[str]:
 
 def cavity_expansion_drag(speed: float) -> tuple[float, float]:
     """(quasi-static, at ``speed``) nose force [N] of the cavity-expansion approximation (module docstring)."""
+    m = card()
+    K, G, Y = m.K, m.G, m.yield_stress
     E = 9 * K * G / (3 * K + G)
     nu = (3 * K - 2 * G) / (2 * (3 * K + G))
     p_s = 2 * Y / 3 * (1 + math.log(E / (3 * (1 - nu) * Y)))
     area = math.pi * RADIUS**2
-    return area * p_s, area * (p_s + 1.5 * RHO * speed**2 / 2)
+    return area * p_s, area * (p_s + 1.5 * m.density * speed**2 / 2)
 
 
 def record(run: Path, cell: str, sets: list[str], speed: float, wall: float) -> dict:
@@ -99,7 +109,7 @@ def run_level(cell: str, sets: list[str], speed: float) -> dict:
         return record(Path(out), cell, sets, speed, time.perf_counter() - t0)
 
 
-def plot(records: list[dict]) -> "matplotlib.figure.Figure":  # noqa: F821
+def plot(records: list[dict]) -> Any:
     """The figure of ``records``: drag against cell size (left) and against the nose's depth (right)."""
     import matplotlib
 
