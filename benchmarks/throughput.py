@@ -14,6 +14,7 @@ Usage::
                                     [--transfer musl usl] [--device cpu|cuda] [--json] [--quick]
                                     [--cases neo_hookean weiss_failure weiss_failure_contact]
                                     [--precision float64 float32] [--anti-locking none fbar]
+                                    [--velocity-update flip tpic]
 
 ``--json`` prints one JSON record per case with ``case``, ``precision``, ``threads``,
 ``shape_function``, ``transfer``, ``device``, ``particles``, ``particle_steps_per_s`` (the median
@@ -57,7 +58,7 @@ def material(case: str):
 
 
 def build_case(case, precision, threads, cells, ppc, shape="gimp", transfer="musl", device="cpu", law=None,
-               anti_locking=None):
+               anti_locking=None, velocity_update="flip"):
     """The benchmark block of ``case`` (``cells``^3 cells, ``ppc``^3 particles per cell; the case's
     material or ``law``): (solver, state)."""
     h = 1e-3
@@ -75,13 +76,15 @@ def build_case(case, precision, threads, cells, ppc, shape="gimp", transfer="mus
     pd = ParticleData(x=X, volume=(h / ppc) ** 3, size=h / ppc, material=0, velocity=v, field=field)
     solver = ExplicitSolver(Model(grid=grid, materials=[law or material(case)], contact=contact),
                             SolverConfig(shape=shape, precision=precision, threads=threads, transfer=transfer,
-                                         device=device, anti_locking=anti_locking))  # fmt: skip
+                                         device=device, anti_locking=anti_locking,
+                                         velocity_update=velocity_update))  # fmt: skip
     return solver, solver.initial_state(pd)
 
 
 def run_case(case, precision, threads, cells, ppc, steps, shape="gimp", transfer="musl", device="cpu", repeat=3,
-             law=None, anti_locking=None) -> dict:
-    solver, st = build_case(case, precision, threads, cells, ppc, shape, transfer, device, law, anti_locking)
+             law=None, anti_locking=None, velocity_update="flip") -> dict:
+    solver, st = build_case(case, precision, threads, cells, ppc, shape, transfer, device, law, anti_locking,
+                            velocity_update)
     solver.step(st)  # warm-up (compilation)
     walls, cpus = [], []
     for _ in range(repeat):  # consecutive blocks of steps: the median resists other tenants' bursts
@@ -99,6 +102,7 @@ def run_case(case, precision, threads, cells, ppc, steps, shape="gimp", transfer
         "shape_function": shape,
         "transfer": transfer,
         "anti_locking": solver.anti_locking,
+        "velocity_update": velocity_update,
         "device": device,
         "particles": st.n,
         "steps": steps,
@@ -125,6 +129,8 @@ def main() -> None:
     ap.add_argument("--json", action="store_true", help="one JSON record per case")
     ap.add_argument("--anti-locking", nargs="+", default=["fbar"], choices=["none", "fbar"],
                     help="volumetric treatments (default: fbar, the solver's default)")
+    ap.add_argument("--velocity-update", nargs="+", default=["flip"], choices=["flip", "tpic"],
+                    help="particle velocity updates (default: flip, the solver's default)")
     args = ap.parse_args()
     if args.quick:
         args.cells, args.steps, args.repeat = 8, 5, 1
@@ -137,14 +143,17 @@ def main() -> None:
             for transfer in args.transfer:
                 for threads in sorted({1, all_threads}):
                     for al in args.anti_locking:
-                        rec = run_case(case, precision, threads, args.cells, args.ppc, args.steps, transfer=transfer,
-                                       device=args.device, repeat=args.repeat, anti_locking=al)  # fmt: skip
-                        rec["machine"] = mach
-                        if args.json:
-                            print(json.dumps(rec), flush=True)
-                        else:
-                            print(f"{case:14s} {precision} {transfer} threads={threads} {al:4s} particles={rec['particles']} "
-                                  f"{rec['particle_steps_per_s'] / 1e6:6.2f} M particle-steps/s", flush=True)  # fmt: skip
+                        for vu in args.velocity_update:
+                            rec = run_case(case, precision, threads, args.cells, args.ppc, args.steps,
+                                           transfer=transfer, device=args.device, repeat=args.repeat, anti_locking=al,
+                                           velocity_update=vu)  # fmt: skip
+                            rec["machine"] = mach
+                            if args.json:
+                                print(json.dumps(rec), flush=True)
+                            else:
+                                print(f"{case:14s} {precision} {transfer} threads={threads} {al:4s} {vu} "
+                                      f"particles={rec['particles']} {rec['particle_steps_per_s'] / 1e6:6.2f} M "
+                                      "particle-steps/s", flush=True)  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -244,12 +244,14 @@ def _refused_problems():
                          "Model.axisymmetric = True", "False"),
         "fbar": (Model(grid=grid, materials=[law]), SolverConfig(threads=1, anti_locking="fbar"),
                  "SolverConfig.anti_locking = 'fbar'", "'none'"),
+        "tpic": (Model(grid=grid, materials=[law]), SolverConfig(threads=1, velocity_update="tpic"),
+                 "SolverConfig.velocity_update = 'tpic'", "'flip'"),
         "damping": (Model(grid=grid, materials=[law]), SolverConfig(threads=1, damping=2.0),
                     "SolverConfig.damping (with ImplicitConfig.dynamic = False) = 2.0", "0"),
     }  # fmt: skip
 
 
-@pytest.mark.parametrize("case", ["contact", "no_reset", "free", "axisymmetric", "fbar", "damping"])
+@pytest.mark.parametrize("case", ["contact", "no_reset", "free", "axisymmetric", "fbar", "tpic", "damping"])
 def test_refused_options_name_the_option_the_value_and_the_valid_choices(case):
     """Each option the implicit integrator refuses stops the constructor with an error naming the
     option, the value, the valid choices and the reason (its row of IMPLICIT_CAPABILITIES)."""

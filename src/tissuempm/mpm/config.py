@@ -25,6 +25,11 @@ per axis). See :mod:`tissuempm.mpm.shape_functions`."""
 Transfer = Literal["usl", "musl", "usf"]
 """Update scheme: update stress last, modified update stress last (velocity
 re-projected before the stress update; Sulsky et al. 1994) or update stress first."""
+VelocityUpdate = Literal["flip", "tpic"]
+"""Particle velocity update: ``"flip"`` (the FLIP/PIC blend of ``SolverConfig.flip``) or ``"tpic"``
+(Taylor particle-in-cell, Nakamura et al. 2023, an affine PIC of the APIC family of Jiang et al. 2015:
+each particle carries its velocity gradient C_p and gives node i the momentum m_p (v_p + C_p (x_i - x_p));
+affine velocity fields survive the transfers exactly)."""
 GridMode = Literal["reset", "no_reset"]
 Outflow = Literal["remove", "stop"]
 """What a particle leaving the grid does: ``"remove"`` (it is taken out of the computation and
@@ -37,6 +42,7 @@ total in the meridian plane of an axisymmetric model)."""
 Precision = Literal[PRECISIONS]  # type: ignore[valid-type]
 SHAPES: tuple[str, ...] = get_args(ShapeFunction)
 TRANSFERS: tuple[str, ...] = get_args(Transfer)
+VELOCITY_UPDATES: tuple[str, ...] = get_args(VelocityUpdate)
 GRIDS: tuple[str, ...] = get_args(GridMode)
 DEVICES: tuple[str, ...] = ("cpu", "cuda")
 OUTFLOWS: tuple[str, ...] = get_args(Outflow)
@@ -83,6 +89,16 @@ class SolverConfig:
         is a numerical viscosity nu = (1 - flip) h^2 / (4 dt) (uGIMP, one particle per cell), growing
         with h and with the number of steps: in penetration it sets the drag (the gelatin examples
         run 1.0; docs/mpm.md, "Anti-locking").
+    velocity_update
+        ``"flip"`` (default: v_p from the FLIP/PIC blend ``flip``) or ``"tpic"``: the Taylor particle-in-cell
+        transfer (Nakamura, Matsumura & Mizutani 2023, CMAME, doi:10.1016/j.cma.2022.115720), the form of the
+        affine PIC of Jiang et al. 2015 (ACM TOG 34(4) 51) whose affine matrix is the velocity gradient. Each particle
+        carries C_p = sum v_i (x) grad S_ip of the velocity it last received, P2G gives node i the momentum
+        m_p (v_p + C_p (x_i - x_p)) and G2P sets v_p = sum S_ip v_i (``flip`` is not used): an affine
+        velocity field (a translation, a rigid rotation, a uniform shear) crosses P2G-G2P unchanged, so the
+        PIC viscosity on it is gone, and the velocity stays as smooth as PIC's (no FLIP ringing). In an
+        axisymmetric model C_p is the meridian-plane gradient (its hoop column is zero). Not with the
+        implicit integrator. ``State.affine`` holds C_p.
     cfl
         Courant number in (0, 1]: dt = cfl h / max_p(c_p + |v_p|) (Ionescu et al. 2006 eqs 9-11).
     precision
@@ -149,6 +165,7 @@ class SolverConfig:
     shape: ShapeFunction = "gimp"
     transfer: Transfer = "musl"
     flip: Annotated[float, Field(ge=0.0, le=1.0)] = 0.99
+    velocity_update: VelocityUpdate = "flip"
     cfl: Annotated[Number, Field(gt=0.0, le=1.0)] = 0.3
     precision: Precision = "float64"
     device: Annotated[str, AfterValidator(_device)] = "cpu"

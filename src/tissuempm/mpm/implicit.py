@@ -232,6 +232,13 @@ IMPLICIT_CAPABILITIES: tuple[Capability, ...] = (
         "NB^3 blocks of a node's row and is not assembled, and without it Newton loses its quadratic rate",
         lambda model, config, implicit: config.anti_locking if config.anti_locking not in (None, "none") else None,
     ),
+    Capability(
+        "SolverConfig.velocity_update", "'flip'",
+        "the implicit particle update is Guilkey & Weiss's FLIP/PIC blend of the converged nodal increments; "
+        "an affine (TPIC) velocity would need C_p from the converged velocity and its momentum in the "
+        "Newmark predictor (not implemented)",
+        lambda model, config, implicit: config.velocity_update if config.velocity_update != "flip" else None,
+    ),
     Capability("Control.rigid_rotation", "no rotation (translating drivers)",
                "the implicit rigid constraint translates (u = dt V); a rotating driver needs the explicit solver "
                "(refused by ImplicitSolver.step)"),

@@ -65,6 +65,12 @@ CACHE = wp.constant(64)
 18 axis values) in ``P.stencil``; G2P with MOVE or GRADIENT: read it from there instead of evaluating
 it again. For the steps whose gathers use the stencils of the step's P2G (MUSL, USL; see
 :data:`CACHED_SHAPES`)."""
+AFFINE = wp.constant(128)
+"""Taylor particle-in-cell transfer (TPIC, Nakamura et al. 2023: the affine PIC of Jiang et al. 2015 with C_p
+the velocity gradient; ``SolverConfig.velocity_update = "tpic"``).
+P2G with MASS: the momentum a particle gives node i is m_p (v_p + C_p (x_i - x_p)) (C_p ``P.affine``);
+G2P with MOVE: v_p <- sum S v_i^new (no FLIP share) and C_p <- sum v_i^new (x) grad S (the gradient of
+the velocity the particle receives; with REPROJECT the re-projected record carries the affine term too)."""
 CACHED_SHAPES: tuple[str, ...] = ("gimp", "cpgimp", "bspline")
 """Shapes whose stencil a MUSL or USL step evaluates once (:data:`CACHE`; uGIMP: 22 ns a stencil,
 docs/mpm.md, against 152 B (float64) stored once and read twice). Not the linear tent: its axis values
@@ -361,6 +367,7 @@ def kernel_structs(t: WarpTypes) -> SimpleNamespace:
         F: wp.array(dtype=mat33)
         F_ref: wp.array(dtype=mat33)
         L: wp.array(dtype=mat33)
+        affine: wp.array(dtype=mat33)
         stress: wp.array(dtype=mat33)
         material: wp.array(dtype=wp.int32)
         field: wp.array(dtype=wp.int32)
@@ -436,7 +443,7 @@ def kernel_structs(t: WarpTypes) -> SimpleNamespace:
 @functools.cache
 def _p2g(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any:
     A = kernel_structs(t)
-    s, vec3, vec4 = t.scalar, t.vec3, t.vec4
+    s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
     h = _helpers(t, shape, NF)
     stencil, field_of, NP = h.stencil, h.field_of, h.NP
     extent, scatter_position = h.extent, h.scatter_position
@@ -444,6 +451,7 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
     rigid_velocity, _, rigid_turns, rigid_first_node = rigid_motion_functions(t)
     POS = NF > 1 and (flags & MASS) != 0  # the contact gap's position record
     CACHED = (flags & CACHE) != 0 and (flags & MASS) != 0
+    AFF = (flags & AFFINE) != 0 and (flags & MASS) != 0
     store = h.store
 
     @transfer_kernel
@@ -521,6 +529,16 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
         if wp.static(flags & BODY):
             bf = bf + pack(m * S.body[p], s(0.0))
         fx = P.fixed[p] != 0
+        # TPIC: m C (x_i - x_p) = m C (d0 + (i, j, 0) h) + k h m C e_z, d0 = x_first_node - x_p
+        Cp = mat33()
+        d0 = vec3()
+        cz = vec4()
+        ox = vec3(s(0.0), s(1.0), s(2.0)) / G.inv_h  # the stencil's node offsets along an axis
+        if wp.static(AFF):
+            if not fx:
+                Cp = P.affine[p]
+            d0 = rigid_first_node(nb, NF, G.dims, G.origin, G.inv_h) - xp
+            cz = pack((m / G.inv_h) * vec3(Cp[0, 2], Cp[1, 2], Cp[2, 2]), s(0.0))
         # tensor-product factorisation: with grad S = (dx_i wy_j wz_k, wx_i dy_j wz_k, wx_i wy_j dz_k),
         # -V sigma grad S + S m b = wz_k fa_ij + dz_k fb_ij, fa_ij and fb_ij formed once per (i, j)
         for i in range(NP):
@@ -533,11 +551,16 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
                     fb = wij * V2
                 if wp.static((flags & BODY) or (AX and (flags & FORCE))):
                     fa = fa + wij * bf
+                mvk = mv  # TPIC: the record at node (i, j, 0), then + h m C e_z per k
+                if wp.static(AFF):
+                    mvk = mv + pack(m * (Cp * (d0 + vec3(ox[i], ox[j], s(0.0)))), s(0.0))
                 for k in range(NP):
                     n = nb + i * sx + j * sy + k * NF
                     if wp.static(flags & MASS):
                         w = wij * wz[k]
-                        B.b_mm[n] += w * mv
+                        B.b_mm[n] += w * mvk
+                        if wp.static(AFF):
+                            mvk = mvk + cz
                         if fx:
                             B.b_c[n] += w * mc
                     if wp.static(flags & FORCE):
@@ -781,7 +804,9 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
     stencil, stored, field_of, NP = h.stencil, h.stored, h.field_of, h.NP
     v4 = vec4_helpers(t)
     pack, head = v4.pack, v4.head
-    rigid_step = rigid_motion_functions(t)[1]
+    _, rigid_step, _, rigid_first_node = rigid_motion_functions(t)
+    AFF = (flags & AFFINE) != 0 and (flags & MOVE) != 0
+    OWN = AFF and (flags & SHARED) == 0  # the affine gradient's own sums (with SHARED they are GRADIENT's)
 
     @transfer_kernel
     def g2p(P: A.Particles, G: A.Grid, S: A.Step, B: A.Rows, v_grad: wp.array(dtype=vec4), begin: int, c: int):
@@ -824,6 +849,9 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
             c1 = vec4()
             c2 = vec4()
             c3 = vec4()  # axisymmetric: sum S v_i (the hoop rate)
+            a0 = vec4()  # AFFINE: the columns of sum v_i^new (x) grad S
+            a1 = vec4()
+            a2 = vec4()
             # tensor-product factorisation: sums over k first, then weighted by the (i, j) factors
             for i in range(NP):
                 for j in range(NP):
@@ -832,12 +860,15 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
                     sdv = vec4()
                     sg = vec4()
                     sd = vec4()
+                    sdn = vec4()
                     for k in range(NP):
                         n = nb + i * sx + j * sy + k * NF
                         if wp.static(flags & MOVE):
                             vn = G.g_vnew[n]
                             sv += wz[k] * vn
                             sdv += wz[k] * G.g_vinc[n]
+                            if wp.static(OWN):
+                                sdn += dz[k] * vn
                         if wp.static(flags & GRADIENT):
                             vg = vec4()
                             if wp.static(flags & SHARED):
@@ -851,6 +882,10 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
                     if wp.static(flags & MOVE):
                         vpic4 += wij * sv
                         dv4 += wij * sdv
+                    if wp.static(OWN):
+                        a0 += (dx[i] * wy[j]) * sv
+                        a1 += (wx[i] * dy[j]) * sv
+                        a2 += wij * sdn
                     if wp.static(flags & GRADIENT):
                         c0 += (dx[i] * wy[j]) * sg
                         c1 += (wx[i] * dy[j]) * sg
@@ -866,17 +901,39 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
                     vpic = vec3()
                     P.v[p] = vpic
                 else:
-                    flip = S.flip
-                    vp = flip * (P.v[p] + head(dv4)) + (s(1.0) - flip) * vpic
+                    vp = vpic
+                    if wp.static(AFF):
+                        Cp = mat33()
+                        if wp.static(OWN):
+                            Cp = wp.matrix_from_cols(head(a0), head(a1), head(a2))
+                        else:
+                            Cp = wp.matrix_from_cols(head(c0), head(c1), head(c2))
+                        P.affine[p] = Cp
+                    else:
+                        flip = S.flip
+                        vp = flip * (P.v[p] + head(dv4)) + (s(1.0) - flip) * vpic
                     P.v[p] = vp
                     if wp.static(flags & REPROJECT):
                         mp = P.mass[p]
                         mv = pack(mp * vp, mp)
+                        Ca = mat33()
+                        d0 = vec3()
+                        cz = vec4()
+                        ox = vec3(s(0.0), s(1.0), s(2.0)) / G.inv_h
+                        if wp.static(AFF):
+                            Ca = P.affine[p]
+                            d0 = rigid_first_node(nb, NF, G.dims, G.origin, G.inv_h) - P.xs[p]
+                            cz = pack((mp / G.inv_h) * vec3(Ca[0, 2], Ca[1, 2], Ca[2, 2]), s(0.0))
                         for i in range(NP):
                             for j in range(NP):
                                 wij = wx[i] * wy[j]
+                                mvk = mv
+                                if wp.static(AFF):
+                                    mvk = mv + pack(mp * (Ca * (d0 + vec3(ox[i], ox[j], s(0.0)))), s(0.0))
                                 for k in range(NP):
-                                    B.b_mm[nb + i * sx + j * sy + k * NF] += (wij * wz[k]) * mv
+                                    B.b_mm[nb + i * sx + j * sy + k * NF] += (wij * wz[k]) * mvk
+                                    if wp.static(AFF):
+                                        mvk = mvk + cz
                 P.vpic[p] = vpic
             if wp.static(flags & GRADIENT):
                 Lp = wp.matrix_from_cols(head(c0), head(c1), head(c2))  # L = sum v_i (x) grad S_i

@@ -168,6 +168,9 @@ class ExplicitSolver(Integrator):
         self.axisymmetric = model.axisymmetric
         if self.axisymmetric and cfg.grid == "no_reset":
             raise ValueError("axisymmetric models need grid = 'reset' (the grid without reset is 3-D only)")
+        self.affine = cfg.velocity_update == "tpic"  # TPIC: each particle carries C_p (State.affine)
+        if self.affine:
+            self.extra_fields += ("affine",)
         self.kern = K.transfer_kernels(self.t, cfg.shape, self.n_fields, self.axisymmetric)
         # MUSL and USL gather with the stencils of the step's P2G (same positions P.xs, and the domains of the
         # step's start: F changes in the gradient gather after its stencil is formed): P2G keeps them (K.CACHE).
@@ -253,7 +256,7 @@ class ExplicitSolver(Integrator):
         G.g_mm, G.g_c, G.g_x, G.g_react = self.g_mm, self.g_c, self.g_x, self.g_react
         G.g_vinc, G.g_vnew, G.g_vgrad = self.g_vinc, self.g_vnew, self.g_vgrad
         S = self.step_args = self.structs.Step()
-        S.gravity, S.damping, S.flip = self._gravity, cfg.damping, cfg.flip
+        S.gravity, S.damping, S.flip = self._gravity, cfg.damping, 0.0 if self.affine else cfg.flip
         S.c_lin, S.c_quad = cfg.bulk_viscosity_linear, cfg.bulk_viscosity_quadratic
         self._row_args: list[Any] = []  # per chunk: its rows of the chunk buffers (structs.Rows)
         # the stencils a MASS scatter keeps for the step's gathers (K.CACHE): one placeholder until a step keeps them
@@ -427,6 +430,7 @@ class ExplicitSolver(Integrator):
         P.x, P.xs, P.v, P.vpic = st.x, self._stencil_positions(st), st.v, st.vpic
         P.mass, P.vol0, P.size = st.mass, st.volume0, st.size
         P.F, P.L, P.stress = st.F, st.L, st.stress
+        P.affine = _carried(st.affine, "affine") if self.affine else st.L  # else a placeholder, never read
         P.F_ref = _carried(st.Fref, "Fref") if self.reference is not None else st.F
         P.material, P.field, P.fixed, P.fiber = st.material, st.field, st.fixed, st.fiber
         P.work, P.reaction = st.work, st.reaction
@@ -630,8 +634,11 @@ class ExplicitSolver(Integrator):
 
     def _scatter_flags(self, flags: int) -> int:
         """P2G kernel flags of a scatter of ``flags``: a MASS scatter keeps its stencils for the step's
-        gathers (``CACHE``) where they use the same ones (MUSL, USL; :data:`~tissuempm.mpm.kernels.CACHED_SHAPES`)."""
-        return flags | K.CACHE if self._stored_stencils and flags & K.MASS else flags
+        gathers (``CACHE``) where they use the same ones (MUSL, USL; :data:`~tissuempm.mpm.kernels.CACHED_SHAPES`)
+        and, with TPIC, carries the affine momentum (``AFFINE``)."""
+        if flags & K.MASS:
+            flags |= (K.CACHE if self._stored_stencils else 0) | (K.AFFINE if self.affine else 0)
+        return flags
 
     def _window(self, st: State) -> tuple[int, int]:
         """Nodal records ``[start, stop)`` that the last MASS scatter touched (all on a GPU)."""
@@ -711,6 +718,8 @@ class ExplicitSolver(Integrator):
             flags |= K.SHARED
         if self._stored_stencils and flags & (K.MOVE | K.GRADIENT):
             flags |= K.CACHE
+        if self.affine and flags & K.MOVE:
+            flags |= K.AFFINE
         if self.reference is None:
             return [flags]
         stencil_flags = flags & ~K.POSITION

@@ -108,8 +108,10 @@ class State:
         PIC velocity of the last gather [m/s] (the position update's).
     history, history_next : wp.array2d(scalar)
         Material history (n, n_state_max), current and scratch buffer (swapped each step).
-    xref, Fref, acc, bulk_q, bulk_work, peak_mps, peak_mps_time, peak_von_mises, peak_von_mises_time : wp.array or None
-        The :data:`OPTIONAL_FIELDS` (None when the solver does not carry them).
+    xref, Fref, acc, affine, bulk_q, bulk_work, peak_mps, peak_mps_time : wp.array or None
+    peak_von_mises, peak_von_mises_time : wp.array or None
+        The :data:`OPTIONAL_FIELDS` (None when the solver does not carry them); ``affine`` is the
+        velocity gradient C_p [1/s] of the affine (TPIC) transfer, ``SolverConfig.velocity_update``.
     time : float
         Simulated time [s].
     step : int
@@ -168,6 +170,7 @@ class State:
     xref: wp.array | None = dataclasses.field(default=None, metadata=particle_array("vec3", start="x"))
     Fref: wp.array | None = dataclasses.field(default=None, metadata=particle_array("mat33", start="F"))
     acc: wp.array | None = dataclasses.field(default=None, metadata=particle_array("vec3"))
+    affine: wp.array | None = dataclasses.field(default=None, metadata=particle_array("mat33"))
     bulk_q: wp.array | None = dataclasses.field(default=None, metadata=particle_array("scalar"))
     bulk_work: wp.array | None = dataclasses.field(default=None, metadata=particle_array("scalar"))
     peak_mps: wp.array | None = dataclasses.field(default=None, metadata=particle_array("scalar"))

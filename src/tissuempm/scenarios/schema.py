@@ -207,8 +207,8 @@ class BulkViscositySection(Section):
     quadratic: _Coefficient = 1.5  # type: ignore[valid-type]
 
 
-_SOLVER_KEYS = ("grid", "reset_distance", "reset_interval", "shape", "transfer", "flip", "cfl", "precision",
-                "threads", "gravity", "damping", "dt_max", "anti_locking")
+_SOLVER_KEYS = ("grid", "reset_distance", "reset_interval", "shape", "transfer", "flip", "velocity_update", "cfl",
+                "precision", "threads", "gravity", "damping", "dt_max", "anti_locking")
 """The options of :class:`tissuempm.mpm.SolverConfig` a ``[solver]`` table holds (types, ranges and
 defaults are SolverConfig's); ``device`` comes from the command line, ``outflow`` and ``track`` from
 ``[run]``, the bulk viscosity from ``[solver.bulk_viscosity]``."""
