@@ -34,15 +34,11 @@ GridMode = Literal["reset", "no_reset"]
 Outflow = Literal["remove", "stop"]
 """What a particle leaving the grid does: ``"remove"`` (it is taken out of the computation and
 counted, :mod:`tissuempm.mpm.removal`) or ``"stop"`` (:class:`InstabilityError` ``"left grid"``)."""
-FbarAverage = Literal["field", "material"]
-"""Which particles of a cell F-bar averages together: all of a velocity field (``"field"``) or each
-material of a field apart (``"material"``)."""
-AntiLocking = Literal["none", "fbar", "fbar_incremental", "fbar_total", "fbar_nodal"]
+AntiLocking = Literal["none", "fbar", "fbar_incremental", "fbar_total"]
 """Volumetric treatments: ``"none"`` (each particle's own F) or F-bar with a cell average
 (:mod:`tissuempm.mpm.volumetric`): ``"fbar_incremental"`` (each step's volume change averaged),
 ``"fbar_total"`` (the volume ratio averaged), ``"fbar"`` (the model's form: incremental in 3-D,
-total in the meridian plane of an axisymmetric model), or ``"fbar_nodal"`` (each step's volume change
-projected to the nodes and interpolated back: :mod:`tissuempm.mpm.nodal_volumetric`)."""
+total in the meridian plane of an axisymmetric model)."""
 Precision = Literal[PRECISIONS]  # type: ignore[valid-type]
 SHAPES: tuple[str, ...] = get_args(ShapeFunction)
 TRANSFERS: tuple[str, ...] = get_args(Transfer)
@@ -147,11 +143,6 @@ class SolverConfig:
         form (incremental in 3-D, total in an axisymmetric model; docs/mpm.md has the measurements).
         ``None`` (default): ``"fbar"`` for the explicit solver, ``"none"`` for the implicit one
         (docs/mpm.md says why).
-    fbar_average
-        Which particles of a cell F-bar averages together: ``"field"`` (default: every particle of the
-        cell's velocity field, whatever its material) or ``"material"`` (each material apart, so a stiff
-        and a soft tissue that share a cell keep their own volume ratios: the skull's inner table and the
-        CSF under it). The table then has one entry per (cell, field, material).
     bulk_viscosity_linear, bulk_viscosity_quadratic
         Artificial bulk viscosity coefficients C_L and C_Q (dimensionless, >= 0; 0 and 0 switch it
         off; LS-DYNA's defaults are 0.06 and 1.5): in compression (tr D < 0) every deformable
@@ -190,7 +181,6 @@ class SolverConfig:
     reset_distance: Annotated[float, Field(gt=0.0, allow_inf_nan=False)] | None = None
     reset_interval: Annotated[int, Field(ge=1)] | None = None
     anti_locking: AntiLocking | None = None
-    fbar_average: FbarAverage = "field"
     bulk_viscosity_linear: Coefficient = 0.0
     bulk_viscosity_quadratic: Coefficient = 0.0
     outflow: Outflow = "remove"

@@ -50,7 +50,6 @@ from tissuempm.mpm.errors import InstabilityError
 from tissuempm.mpm.free_bodies import FreeBodies
 from tissuempm.mpm.launch import Launcher
 from tissuempm.mpm.model import Model, ParticleData, RigidMaterial
-from tissuempm.mpm.nodal_volumetric import NodalAverage
 from tissuempm.mpm.reference_grid import ReferenceGrid, check_no_reset
 from tissuempm.mpm.removal import KEEP, OUTFLOW, UNSTABLE, classify_kernel, erosion_slots, removed_totals
 from tissuempm.mpm.shape_functions import GIMP_SHAPES
@@ -188,11 +187,7 @@ class ExplicitSolver(Integrator):
             self.contact_args: Any = model.contact.kernel_args(self.t, self.device)
         # F-bar: the cell averages, applied by the stress kernels (their placeholder argument without it)
         self.anti_locking = cfg.anti_locking or ("none" if self.axisymmetric else self.default_anti_locking)
-        self.volumetric: CellAverage | NodalAverage | None = None
-        if self.anti_locking == "fbar_nodal":
-            self.volumetric = NodalAverage(self)
-        elif self.anti_locking != "none":
-            self.volumetric = CellAverage(self)
+        self.volumetric = CellAverage(self) if self.anti_locking != "none" else None
         fbar = self.volumetric.form if self.volumetric is not None else "none"
         self._cells = self.volumetric.cells if self.volumetric is not None else fbar_cells(self.t, False).Cells()
         # materials

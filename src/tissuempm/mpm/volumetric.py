@@ -139,14 +139,12 @@ def fbar_cells(t: WarpTypes, total: bool) -> SimpleNamespace:
 
 
 @functools.cache
-def fbar_kernels(t: WarpTypes, n_fields: int, total: bool = True, n_groups: int = 1) -> Any:
+def fbar_kernels(t: WarpTypes, n_fields: int, total: bool = True) -> Any:
     """``measure`` and ``accumulate`` kernels of the F-bar pass for types ``t`` and ``n_fields``
-    velocity fields (the table is indexed ``(cell * n_fields + field) * n_groups + material``, the material
-    index only with ``n_groups`` > 1, the per-material average; its entries (V0 J, V0 J^n, V0) give Jbar and
-    dJbar). The stress kernels apply the factor (``factor`` of :func:`fbar_cells`)."""
+    velocity fields (the table is indexed ``cell * n_fields + field``; its entries (V0 J, V0 J^n, V0)
+    give Jbar and dJbar). The stress kernels apply the factor (``factor`` of :func:`fbar_cells`)."""
     s, vec3, mat33 = t.scalar, t.vec3, t.mat33
     NF = n_fields
-    NG = n_groups
     FAILED = float(FailureMode.BOTH)
     TOT = bool(total)  # False: the incremental average (3-D models, see the module docstring)
     share_t = fbar_cells(t, TOT).share
@@ -193,8 +191,6 @@ def fbar_kernels(t: WarpTypes, n_fields: int, total: bool = True, n_groups: int 
             if wp.static(NF > 1):
                 f = int(field[p])
             k = ((i * dims[1] + j) * dims[2] + q) * NF + f
-            if wp.static(NG > 1):
-                k = k * NG + m
             VJ = vol0[p] * J
             if wp.static(TOT):
                 share[p] = share_t(VJ, VJ / d, vol0[p])
@@ -223,8 +219,7 @@ def fbar_kernels(t: WarpTypes, n_fields: int, total: bool = True, n_groups: int 
 
 
 class CellAverage:
-    """The F-bar pass of a solver: a per-(cell, field) table (per (cell, field, material) with
-    ``SolverConfig.fbar_average = "material"``), per-particle scratch and three kernels.
+    """The F-bar pass of a solver: a per-(cell, field) table, per-particle scratch and three kernels.
 
     Parameters
     ----------
@@ -246,11 +241,9 @@ class CellAverage:
         self.form = "total" if total else "incremental"
         cells = fbar_cells(t, total)
         self.entry = cells.share  # (V0 J, V0 J^n[, V0])
-        # "material": each material of a cell averaged apart (SolverConfig.fbar_average)
-        self.n_groups = len(solver.model.materials) if solver.config.fbar_average == "material" else 1
-        self.measure, self.accumulate = fbar_kernels(t, solver.n_fields, total, self.n_groups)
+        self.measure, self.accumulate = fbar_kernels(t, solver.n_fields, total)
         dims = solver.model.grid.shape
-        self.n_entries = dims[0] * dims[1] * dims[2] * solver.n_fields * self.n_groups
+        self.n_entries = dims[0] * dims[1] * dims[2] * solver.n_fields
         self.table = wp.zeros(self.n_entries, dtype=self.entry, device=solver.device)
         self.cells = cells.Cells()  # what the stress kernels read to apply the factor (key, dJ: _scratch)
         self.cells.table = self.table

@@ -208,7 +208,7 @@ class BulkViscositySection(Section):
 
 
 _SOLVER_KEYS = ("grid", "reset_distance", "reset_interval", "shape", "transfer", "flip", "velocity_update", "cfl",
-                "precision", "threads", "gravity", "damping", "dt_max", "anti_locking", "fbar_average")
+                "precision", "threads", "gravity", "damping", "dt_max", "anti_locking")
 """The options of :class:`tissuempm.mpm.SolverConfig` a ``[solver]`` table holds (types, ranges and
 defaults are SolverConfig's); ``device`` comes from the command line, ``outflow`` and ``track`` from
 ``[run]``, the bulk viscosity from ``[solver.bulk_viscosity]``."""
