@@ -89,13 +89,16 @@ def hic(time: np.ndarray, accel_g: np.ndarray, window: float) -> tuple[float, fl
 # ------------------------------------------------------------------------------------------ report
 @dataclass
 class ProbePeaks:
-    """Pressure extremes [Pa] of one probe and their times [s]."""
+    """Pressure extremes [Pa] of one probe and their times [s], with the spread of its particles'
+    pressures at those times [Pa] (``probe_<name>_pressure_spread``; NaN for runs written before it)."""
 
     name: str
     max_pressure: float
     time_of_max: float
     min_pressure: float
     time_of_min: float
+    spread_at_max: float = float("nan")
+    spread_at_min: float = float("nan")
 
 
 @dataclass
@@ -233,7 +236,8 @@ def _probe_peaks(hist: dict[str, np.ndarray], sc: dict[str, Any], wanted: list[s
         if p is None or not np.any(np.isfinite(p)):
             continue
         i, j = int(np.nanargmax(p)), int(np.nanargmin(p))
-        out.append(ProbePeaks(n, float(p[i]), float(t[i]), float(p[j]), float(t[j])))
+        s = hist.get(f"probe_{n}_pressure_spread", np.full(len(p), np.nan))
+        out.append(ProbePeaks(n, float(p[i]), float(t[i]), float(p[j]), float(t[j]), float(s[i]), float(s[j])))
     return out
 
 

@@ -34,8 +34,10 @@ def _table(report: BrainReport, out: Path | None) -> Table:
     _row(table, "brain", f"{', '.join(report.brain_materials)}: {report.brain_particles} particles, "
                            f"{report.brain_volume * 1e6:.4g} cm^3")  # fmt: skip
     for p in report.probes:
-        _row(table, f"probe {p.name}", f"max {_g(p.max_pressure, ' kPa', 1e-3)} at {_g(p.time_of_max, ' ms', 1e3)}, "
-                                         f"min {_g(p.min_pressure, ' kPa', 1e-3)} at {_g(p.time_of_min, ' ms', 1e3)}")
+        _row(table, f"probe {p.name}",
+             f"max {_g(p.max_pressure, ' kPa', 1e-3)} (spread {_g(p.spread_at_max, ' kPa', 1e-3)}) at "
+             f"{_g(p.time_of_max, ' ms', 1e3)}, min {_g(p.min_pressure, ' kPa', 1e-3)} (spread "
+             f"{_g(p.spread_at_min, ' kPa', 1e-3)}) at {_g(p.time_of_min, ' ms', 1e3)}")
     _row(table, f"peak MPS ({report.strain_measure})", f"{report.peak_mps:.4g}; 95th percentile {report.mps_95:.4g}")
     _row(table, "CSDM", ", ".join(f"{k}: {v:.4f}" for k, v in report.csdm.items()))
     _row(table, "peak von Mises",

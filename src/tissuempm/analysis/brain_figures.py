@@ -1,6 +1,7 @@
 """Figures of ``tissuempm brain`` (PNG, matplotlib Agg; lengths in mm, times in ms, pressures in kPa).
 
-* ``probe_pressure.png``: each probe's pressure against time (``history.csv``);
+* ``probe_pressure.png``: each probe's pressure against time (``history.csv``), shaded +- the spread of its
+  particles' pressures where the run recorded it;
 * ``mps_slices.png``: peak maximum principal strain of the brain particles on the mid-sagittal
   (x = centre) and axial (z = centre) planes through the brain's centroid, reference positions,
   the particles within half a particle spacing of the plane (x, y, z as RAS+: x left-right,
@@ -30,12 +31,16 @@ def _save(fig: plt.Figure, path: Path) -> Path:
 
 def probe_figure(run_dir: Path, report: BrainReport) -> plt.Figure | None:
     hist = read_history(run_dir / "history.csv")
-    cols = [(p.name, hist[f"probe_{p.name}_pressure"]) for p in report.probes]
+    cols = [(p.name, hist[f"probe_{p.name}_pressure"], hist.get(f"probe_{p.name}_pressure_spread"))
+            for p in report.probes]  # fmt: skip
     if not cols:
         return None
     fig, ax = plt.subplots(figsize=(6.5, 4))
-    for name, p in cols:
-        ax.plot(hist["time"] * 1e3, p / 1e3, label=name)
+    t = hist["time"] * 1e3
+    for name, p, spread in cols:
+        line = ax.plot(t, p / 1e3, label=name)[0]
+        if spread is not None:  # the band of +- one spread of the probe's particles about their mean
+            ax.fill_between(t, (p - spread) / 1e3, (p + spread) / 1e3, color=line.get_color(), alpha=0.15, lw=0)
     ax.axhline(0.0, color="0.6", lw=0.8)
     ax.set_xlabel("time [ms]")
     ax.set_ylabel("pressure [kPa]")

@@ -13,7 +13,15 @@ Two column providers that :class:`~tissuempm.io.history.HistoryLog` appends to e
   brain, which a head in rigid-body motion carries along. A volume average of a smooth field over
   a sphere of radius r equals its centre value plus r^2/10 of its Laplacian, so it converges to
   the point value as r -> 0; shape-function weights would instead mix in particles up to two
-  cells away through the grid, without a gain in accuracy for a cell-sized gauge.
+  cells away through the grid, without a gain in accuracy for a cell-sized gauge. With it
+  ``probe_<name>_pressure_spread`` [Pa], the volume-weighted standard deviation of the particles'
+  pressures about that mean,
+
+  .. math:: s = \\Big(\\sum_p J_p V_{0,p} (p_p - \\bar p)^2 \\Big/ \\sum_p J_p V_{0,p}\\Big)^{1/2},
+
+  which tells a reading from a resolved field (s about the field's own variation over the sphere,
+  rho g r / sqrt(5) for a hydrostatic gradient sampled evenly) from one that samples particle-to-particle
+  scatter (docs/validation.md, "TPIC, an affine transfer, measured": +-1-3 MPa in a coarse head model).
 * :class:`HeadColumns`, the skull bodies' mass-weighted motion (``[head] skull``):
   ``head_velocity_x/y/z`` [m/s] (v_c = sum m v / M), ``head_angular_velocity_x/y/z`` [rad/s]
   (omega = I^-1 H with the angular momentum H = sum m r x (v - v_c) and inertia tensor
@@ -33,17 +41,19 @@ from tissuempm.mpm.free_bodies import rigid_fit
 XYZ = ("x", "y", "z")
 
 
-def probe_pressure(data: dict[str, Any], members: np.ndarray) -> float:
+def probe_pressure(data: dict[str, Any], members: np.ndarray) -> tuple[float, float]:
     """Volume-weighted mean pressure [Pa] of the particles whose original index ``members`` (bool
-    over the seeded particles) selects, from a ``State.to_numpy()`` snapshot (NaN if none is left)."""
+    over the seeded particles) selects, and the volume-weighted standard deviation about it [Pa],
+    from a ``State.to_numpy()`` snapshot (NaN, NaN if none is left)."""
     sel = members[np.asarray(data["id"], dtype=np.int64)]
     if not np.any(sel):
-        return float("nan")
+        return float("nan"), float("nan")
     s = np.asarray(data["stress"], float)[sel]
     p = -np.trace(s, axis1=1, axis2=2) / 3.0
     J = np.asarray(data["J"], float)[sel] if "J" in data else np.linalg.det(np.asarray(data["F"], float)[sel])
     w = J * np.asarray(data["volume0"], float)[sel]
-    return float(np.sum(w * p) / np.sum(w))
+    mean = float(np.sum(w * p) / np.sum(w))
+    return mean, float(np.sqrt(np.sum(w * (p - mean) ** 2) / np.sum(w)))
 
 
 def rigid_motion(x: np.ndarray, v: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -58,16 +68,16 @@ def rigid_motion(x: np.ndarray, v: np.ndarray, m: np.ndarray) -> tuple[np.ndarra
 
 
 class ProbeColumns:
-    """``probe_<name>_pressure`` of each probe; ``members[k]`` (bool over the seeded particles)
-    selects probe ``k``'s particles."""
+    """``probe_<name>_pressure`` and ``probe_<name>_pressure_spread`` of each probe; ``members[k]``
+    (bool over the seeded particles) selects probe ``k``'s particles."""
 
     def __init__(self, names: list[str], members: list[np.ndarray]):
         self.names = list(names)
         self.members = [np.asarray(m, dtype=bool) for m in members]
-        self.columns = [f"probe_{name}_pressure" for name in self.names]
+        self.columns = [f"probe_{name}_pressure{part}" for name in self.names for part in ("", "_spread")]
 
     def values(self, data: dict[str, Any]) -> list[float]:
-        return [probe_pressure(data, m) for m in self.members]
+        return [v for m in self.members for v in probe_pressure(data, m)]
 
     def restore(self, row: dict[str, float]) -> None:
         """Nothing to carry between rows."""
