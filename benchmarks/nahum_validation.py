@@ -128,6 +128,9 @@ def analyse(run: Path, cutoff: float = 1000.0, symmetry_factor: float = 2.0) -> 
                             "window_max": float(yf[window].max()), "window_time_of_max": float(t[window][np.argmax(yf[window])]),
                             "window_min": float(yf[window].min()), "window_time_of_min": float(t[window][np.argmin(yf[window])]),
                             "at_force_peak": float(yf[k])}  # fmt: skip
+        spread = hist.get(f"{col}_spread")  # the probe's particle spread (runs from 3149131 on)
+        if spread is not None:
+            out["probes"][p]["spread_at_force_peak"] = float(lowpass(t, spread, cutoff)[k])
     brain = run / "brain" / "brain.json"
     if brain.exists():
         b = json.loads(brain.read_text())
@@ -144,6 +147,9 @@ def table(res: dict) -> str:
     def ratio(a, b):
         return f"{a / b:.2f}" if a is not None and b else "-"
 
+    def spread(r):  # the probe particles' spread at the force peak, where the run recorded it
+        return f" +- {r['spread_at_force_peak'] / 1e3:.0f} (particle spread)" if "spread_at_force_peak" in r else ""
+
     rows.append(f"| peak impact force [kN] | {pub['peak_impact_force'] / 1e3:.1f} | {f['peak'] / 1e3:.2f} "
                 f"(at {f['time_of_peak'] * 1e3:.2f} ms; raw {f['peak_raw'] / 1e3:.2f}) | "
                 f"{ratio(f['peak'], pub['peak_impact_force'])} |")  # fmt: skip
@@ -156,7 +162,8 @@ def table(res: dict) -> str:
         refs = f"{ref / 1e3:+.0f}" if ref is not None else "recorded, value not available"
         rows.append(f"| {p} pressure peak [kPa] | {refs} | loading phase (to {f['time_of_peak'] * 1e3:.2f} ms): max {r['window_max'] / 1e3:+.0f} at "
                     f"{r['window_time_of_max'] * 1e3:.2f} ms, min {r['window_min'] / 1e3:+.0f} at {r['window_time_of_min'] * 1e3:.2f} ms; "
-                    f"at the force peak {r['at_force_peak'] / 1e3:+.0f}; whole run: max {r['max'] / 1e3:+.0f} at "
+                    f"at the force peak {r['at_force_peak'] / 1e3:+.0f}{spread(r)}; "
+                    f"whole run: max {r['max'] / 1e3:+.0f} at "
                     f"{r['time_of_max'] * 1e3:.2f} ms, min {r['min'] / 1e3:+.0f} at {r['time_of_min'] * 1e3:.2f} ms "
                     f"| {ratio(r['window_' + sign], ref)} |")  # fmt: skip
     # pressure per unit peak force: the comparison that does not depend on the pad (quasi-static
