@@ -22,11 +22,6 @@ import meshio
 import numpy as np
 
 
-def _length(value: object) -> float:
-    """A length of scenario.json [m] (a number, SI)."""
-    return float(value)  # type: ignore[arg-type]
-
-
 def spread(run: Path, frame: int, radii: list[float]) -> dict:
     sc = json.loads((run / "scenario.json").read_text())
     names = [b["name"] for b in sc["body"]]
@@ -37,10 +32,10 @@ def spread(run: Path, frame: int, radii: list[float]) -> dict:
     w = pd["J"] * np.prod(pd["size"], axis=1)  # the current volume J V0 (V0 = the product of the edges), as the probes
     out: dict = {"run": str(run), "frame": frame, "probes": {}}
     for probe in sc.get("probe", []):
-        centre = np.array([_length(c) for c in probe["position"]])
+        centre = np.array([float(c) for c in probe["position"]])
         want = np.isin(body, [names.index(n) for n in probe["bodies"]])
         d = np.linalg.norm(pd["x0"] - centre, axis=1)
-        own = want & (d < _length(probe["radius"]))
+        own = want & (d < float(probe["radius"]))
         means = {}
         for r in radii:
             sel = want & (d < r * 1e-3)
@@ -49,7 +44,7 @@ def spread(run: Path, frame: int, radii: list[float]) -> dict:
         out["probes"][probe["name"]] = {"particles": int(own.sum()), "min_kPa": float(p[own].min() / 1e3),
                                         "max_kPa": float(p[own].max() / 1e3), "means": means}  # fmt: skip
     brain = np.array(["matter" in names[b] or names[b] == "brain_stem" for b in body])
-    h = _length(sc["grid"]["cell_size"])
+    h = float(sc["grid"]["cell_size"])
     key = np.floor((mesh.points[brain] - np.array(sc["grid"]["lower"], float)) / h).astype(np.int64)
     _, cell = np.unique(key, axis=0, return_inverse=True)
     cell = cell.ravel()

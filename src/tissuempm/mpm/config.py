@@ -42,7 +42,6 @@ total in the meridian plane of an axisymmetric model)."""
 Precision = Literal[PRECISIONS]  # type: ignore[valid-type]
 SHAPES: tuple[str, ...] = get_args(ShapeFunction)
 TRANSFERS: tuple[str, ...] = get_args(Transfer)
-VELOCITY_UPDATES: tuple[str, ...] = get_args(VelocityUpdate)
 GRIDS: tuple[str, ...] = get_args(GridMode)
 DEVICES: tuple[str, ...] = ("cpu", "cuda")
 OUTFLOWS: tuple[str, ...] = get_args(Outflow)

@@ -311,6 +311,28 @@ def vec4_helpers(t: WarpTypes) -> SimpleNamespace:
 
 
 @functools.cache
+def affine_helpers(t: WarpTypes, NF: int) -> SimpleNamespace:
+    """TPIC's momentum record m (v + C (x_i - x_p)) over a stencil (:data:`AFFINE`), shared by P2G and MUSL's
+    re-projection: ``start`` gives d0 = x_first_node - x_p, the per-k increment h m C e_z and the node offsets
+    (0, h, 2h) along an axis; ``row`` the record at node (i, j, 0), m v + m C (d0 + (ox_i, ox_j, 0))."""
+    s, vec3, vec4, mat33 = t.scalar, t.vec3, t.vec4, t.mat33
+    pack = vec4_helpers(t).pack
+    first_node = rigid_motion_functions(t)[3]
+
+    @wp.func
+    def start(C: mat33, m: s, nb: int, xp: vec3, dims: wp.vec3i, origin: vec3, inv_h: s):
+        d0 = first_node(nb, NF, dims, origin, inv_h) - xp
+        cz = pack((m / inv_h) * vec3(C[0, 2], C[1, 2], C[2, 2]), s(0.0))
+        return d0, cz, vec3(s(0.0), s(1.0), s(2.0)) / inv_h
+
+    @wp.func
+    def row(mv: vec4, m: s, C: mat33, d0: vec3, ox: vec3, i: int, j: int):
+        return mv + pack(m * (C * (d0 + vec3(ox[i], ox[j], s(0.0)))), s(0.0))
+
+    return SimpleNamespace(start=start, row=row)
+
+
+@functools.cache
 def kernel_structs(t: WarpTypes) -> SimpleNamespace:
     """Warp structs of the explicit step's kernel arguments for types ``t``: the kernels take these,
     not dozens of positional arguments (issue 24).
@@ -452,6 +474,7 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
     POS = NF > 1 and (flags & MASS) != 0  # the contact gap's position record
     CACHED = (flags & CACHE) != 0 and (flags & MASS) != 0
     AFF = (flags & AFFINE) != 0 and (flags & MASS) != 0
+    affine = affine_helpers(t, NF)
     store = h.store
 
     @transfer_kernel
@@ -533,12 +556,11 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
         Cp = mat33()
         d0 = vec3()
         cz = vec4()
-        ox = vec3(s(0.0), s(1.0), s(2.0)) / G.inv_h  # the stencil's node offsets along an axis
+        ox = vec3()
         if wp.static(AFF):
             if not fx:
                 Cp = P.affine[p]
-            d0 = rigid_first_node(nb, NF, G.dims, G.origin, G.inv_h) - xp
-            cz = pack((m / G.inv_h) * vec3(Cp[0, 2], Cp[1, 2], Cp[2, 2]), s(0.0))
+            d0, cz, ox = affine.start(Cp, m, nb, xp, G.dims, G.origin, G.inv_h)
         # tensor-product factorisation: with grad S = (dx_i wy_j wz_k, wx_i dy_j wz_k, wx_i wy_j dz_k),
         # -V sigma grad S + S m b = wz_k fa_ij + dz_k fb_ij, fa_ij and fb_ij formed once per (i, j)
         for i in range(NP):
@@ -553,7 +575,7 @@ def _p2g(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
                     fa = fa + wij * bf
                 mvk = mv  # TPIC: the record at node (i, j, 0), then + h m C e_z per k
                 if wp.static(AFF):
-                    mvk = mv + pack(m * (Cp * (d0 + vec3(ox[i], ox[j], s(0.0)))), s(0.0))
+                    mvk = affine.row(mv, m, Cp, d0, ox, i, j)
                 for k in range(NP):
                     n = nb + i * sx + j * sy + k * NF
                     if wp.static(flags & MASS):
@@ -804,7 +826,8 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
     stencil, stored, field_of, NP = h.stencil, h.stored, h.field_of, h.NP
     v4 = vec4_helpers(t)
     pack, head = v4.pack, v4.head
-    _, rigid_step, _, rigid_first_node = rigid_motion_functions(t)
+    rigid_step = rigid_motion_functions(t)[1]
+    affine = affine_helpers(t, NF)
     AFF = (flags & AFFINE) != 0 and (flags & MOVE) != 0
     OWN = AFF and (flags & SHARED) == 0  # the affine gradient's own sums (with SHARED they are GRADIENT's)
 
@@ -919,17 +942,16 @@ def _g2p(t: WarpTypes, shape: str, flags: int, NF: int, AX: bool = False) -> Any
                         Ca = mat33()
                         d0 = vec3()
                         cz = vec4()
-                        ox = vec3(s(0.0), s(1.0), s(2.0)) / G.inv_h
+                        ox = vec3()
                         if wp.static(AFF):
                             Ca = P.affine[p]
-                            d0 = rigid_first_node(nb, NF, G.dims, G.origin, G.inv_h) - P.xs[p]
-                            cz = pack((mp / G.inv_h) * vec3(Ca[0, 2], Ca[1, 2], Ca[2, 2]), s(0.0))
+                            d0, cz, ox = affine.start(Ca, mp, nb, P.xs[p], G.dims, G.origin, G.inv_h)
                         for i in range(NP):
                             for j in range(NP):
                                 wij = wx[i] * wy[j]
                                 mvk = mv
                                 if wp.static(AFF):
-                                    mvk = mv + pack(mp * (Ca * (d0 + vec3(ox[i], ox[j], s(0.0)))), s(0.0))
+                                    mvk = affine.row(mv, mp, Ca, d0, ox, i, j)
                                 for k in range(NP):
                                     B.b_mm[nb + i * sx + j * sy + k * NF] += (wij * wz[k]) * mvk
                                     if wp.static(AFF):
