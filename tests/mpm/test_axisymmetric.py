@@ -20,17 +20,10 @@ from tissuempm.mpm import (
     RigidMaterial,
     SolverConfig,
 )
+from tissuempm.mpm.thick_walled import meridian_lattice as meridian
 
 E, NU, RHO = 1.0e5, 0.3, 1000.0
 K_, G_ = E / (3 * (1 - 2 * NU)), E / (2 * (1 + NU))
-
-
-def meridian(lo: tuple[float, float], hi: tuple[float, float], sp: float) -> np.ndarray:
-    """Particle centres (m, 3) of spacing ``sp`` filling the meridian rectangle ``lo..hi`` (z = 0)."""
-    xs = np.arange(lo[0] + sp / 2, hi[0], sp)
-    ys = np.arange(lo[1] + sp / 2, hi[1], sp)
-    gx, gy = np.meshgrid(xs, ys, indexing="ij")
-    return np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], axis=1)
 
 
 def axis_faces() -> list[GridBoundary]:
