@@ -7,8 +7,9 @@ and two Poncelet curves
 
     m dv/dt = -(a v^2 + b),   a = rho Cd A / 2,   depth(v0) = m / (2 a) ln(1 + a v0^2 / b),
 
-one with the card's quasi-static cavity-expansion resistance b = p A, p = (2/3) Y (1 + ln(E / 3Y))
-(Y = 0.22 MPa, E = 3 G = 2.55 MPa: b = 5.5 N), and one with the resistance that puts the FBI
+one with the card's quasi-static cavity-expansion resistance b = p A, Hill's spherical cavity
+p = (2/3) Y (1 + ln(E / (3 (1 - nu) Y))) (Y = 0.22 MPa, E = 2.55 MPa, nu = 0.4998: b = 7.1 N;
+``gelatin_drag.cavity_expansion_drag``), and one with the resistance that puts the FBI
 window's 85 mm at 180 m/s (b = a v0^2 / (exp(2 a D / m) - 1) = 31 N); both with Cd = 0.4 (the sphere's
 inertial drag). The Poncelet curves are our own estimates, not published numbers (docs/validation.md).
 
@@ -22,6 +23,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+from gelatin_drag import cavity_expansion_drag
 
 ROOT = Path(__file__).resolve().parents[1]
 PUBLISHED = ROOT / "examples/data/gelatin_sphere_penetration.csv"
@@ -72,8 +74,9 @@ def main() -> None:
     v = np.linspace(20.0, 240.0, 200)
     fig, ax = plt.subplots(figsize=(6.5, 4.2), layout="constrained")
     ax.plot(speed, depth * 1e3, "o-", color="C0", label=args.label)
-    ax.plot(v, poncelet_depth(v, 5.5) * 1e3, "--", color="C0", lw=1,
-            label="Poncelet, card's static resistance (5.5 N), Cd 0.4")  # fmt: skip
+    b_card = cavity_expansion_drag(0.0)[0]
+    ax.plot(v, poncelet_depth(v, b_card) * 1e3, "--", color="C0", lw=1,
+            label=f"Poncelet, card's static resistance ({b_card:.1f} N), Cd 0.4")  # fmt: skip
     b_fbi = poncelet_resistance(179.8, 0.085)
     ax.plot(v, poncelet_depth(v, b_fbi) * 1e3, ":", color="C3", lw=1,
             label=f"Poncelet through the FBI window ({b_fbi:.0f} N), Cd 0.4")  # fmt: skip
