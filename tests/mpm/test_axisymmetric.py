@@ -14,20 +14,16 @@ from tissuempm.mpm import (
     ContactLaw,
     ExplicitSolver,
     Grid,
-    GridBoundary,
     Model,
     ParticleData,
     RigidMaterial,
     SolverConfig,
 )
+from tissuempm.mpm.axisymmetric import axis_faces
 from tissuempm.mpm.thick_walled import meridian_lattice as meridian
 
 E, NU, RHO = 1.0e5, 0.3, 1000.0
 K_, G_ = E / (3 * (1 - 2 * NU)), E / (2 * (1 + NU))
-
-
-def axis_faces() -> list[GridBoundary]:
-    return [GridBoundary(0, "lower", "slip"), GridBoundary(2, "lower", "slip"), GridBoundary(2, "upper", "slip")]
 
 
 def breathing_frequency(R: float) -> float:

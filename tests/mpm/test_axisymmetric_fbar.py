@@ -13,11 +13,12 @@ import pytest
 from test_axisymmetric import _breathing
 
 from tissuempm.materials import NeoHookean
-from tissuempm.mpm import ExplicitSolver, Grid, GridBoundary, Model, ParticleData, SolverConfig
+from tissuempm.mpm import ExplicitSolver, Grid, Model, ParticleData, SolverConfig
+from tissuempm.mpm.axisymmetric import axis_faces
 from tissuempm.mpm.thick_walled import lame_displacement, pressurised_wall
 from tissuempm.mpm.thick_walled import meridian_lattice as meridian
 
-AXIS_FACES = [GridBoundary(0, "lower", "slip"), GridBoundary(2, "lower", "slip"), GridBoundary(2, "upper", "slip")]
+AXIS_FACES = axis_faces()
 
 
 def _pass_setup(n_cells: int = 3):

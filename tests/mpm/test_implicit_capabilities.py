@@ -24,6 +24,7 @@ from tissuempm.mpm import (
     RigidMaterial,
     SolverConfig,
 )
+from tissuempm.mpm.axisymmetric import axis_faces
 from tissuempm.mpm.implicit import IMPLICIT_CAPABILITIES
 
 H = 1e-3
@@ -231,7 +232,7 @@ def _refused_problems():
     law = NeoHookean(C10=5e3, K=1e5, density=RHO)
     grid = Grid(origin=(0, 0, 0), cell_size=H, shape=(4, 4, 4))
     thin = Grid(origin=(0.0, 0.0, -0.5e-3), cell_size=H, shape=(4, 4, 1))
-    axis = [GridBoundary(0, "lower", "slip"), GridBoundary(2, "lower", "slip"), GridBoundary(2, "upper", "slip")]
+    axis = axis_faces()
     cfg = SolverConfig(threads=1)
     return {
         "contact": (Model(grid=grid, materials=[law, law], contact=Contact(2, {(0, 1): ContactLaw("frictionless")})),

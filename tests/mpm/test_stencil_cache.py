@@ -21,6 +21,7 @@ from mpm_testlib import lattice
 
 from tissuempm.materials import NeoHookean
 from tissuempm.mpm import Contact, ContactLaw, ExplicitSolver, Grid, GridBoundary, Model, ParticleData, SolverConfig
+from tissuempm.mpm.axisymmetric import axis_faces
 
 H, SP = 0.01, 0.005  # cell, particle spacing [m]: 2 x 2 x 2 particles per cell
 LAW = NeoHookean(C10=2e4, K=4e5, density=1000.0)  # K/G = 10: F-bar changes the stress
@@ -61,7 +62,7 @@ def _meridian() -> tuple[Model, ParticleData]:
     r, z = np.meshgrid(np.arange(SP / 2, 0.06, SP), np.arange(0.02 + SP / 2, 0.07, SP), indexing="ij")
     x = np.stack([r.ravel(), z.ravel(), np.zeros(r.size)], axis=1)
     v = np.stack([5.0 * x[:, 0], -0.5 * np.sin(np.pi * x[:, 0] / 0.06), np.zeros(len(x))], axis=1)
-    faces = [GridBoundary(0, "lower", "slip"), GridBoundary(2, "lower", "slip"), GridBoundary(2, "upper", "slip")]
+    faces = axis_faces()
     model = Model(grid=grid, materials=[LAW], boundaries=faces, axisymmetric=True)
     return model, ParticleData(x=x, volume=x[:, 0] * SP**2, size=np.tile([SP, SP, H], (len(x), 1)), material=0,
                                velocity=v)  # fmt: skip

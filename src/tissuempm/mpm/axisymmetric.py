@@ -59,6 +59,11 @@ from typing import Any
 
 import numpy as np
 
+from tissuempm.mpm.model import GridBoundary
+
+AXIS_FACES: tuple[tuple[int, str], ...] = ((0, "lower"), (2, "lower"), (2, "upper"))
+"""(axis, side) of the faces a meridian-plane grid must hold as slip faces: the axis and both hoop faces."""
+
 
 def check_axisymmetric_model(grid: Any, boundaries: Sequence[Any]) -> None:
     """Raise ``ValueError`` unless ``grid`` and ``boundaries`` describe a meridian plane: the axis
@@ -70,11 +75,16 @@ def check_axisymmetric_model(grid: Any, boundaries: Sequence[Any]) -> None:
         raise ValueError("axisymmetric: the grid must be one cell thick along z (the hoop direction), "
                          f"got {grid.shape[2]}")
     faces = {(b.axis, b.side): b.kind for b in boundaries}
-    for axis, side in ((0, "lower"), (2, "lower"), (2, "upper")):
+    for axis, side in AXIS_FACES:
         if faces.get((axis, side)) != "slip":
             name = "xyz"[axis]
             raise ValueError(f"axisymmetric: the {side} {name} face must be a slip face "
                              f"(it is {faces.get((axis, side))!r})")
+
+
+def axis_faces() -> list[GridBoundary]:
+    """The slip faces :func:`check_axisymmetric_model` asks for (:data:`AXIS_FACES`), for models built in code."""
+    return [GridBoundary(axis, side, "slip") for axis, side in AXIS_FACES]  # type: ignore[arg-type]
 
 
 def per_radian_volume(x: np.ndarray, area: np.ndarray | float) -> np.ndarray:

@@ -47,6 +47,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from tissuempm.materials.base import Material
+from tissuempm.mpm.axisymmetric import axis_faces
 from tissuempm.mpm.config import AntiLocking, Control, SolverConfig
 from tissuempm.mpm.model import Grid, GridBoundary, Model, ParticleData
 from tissuempm.mpm.solver import ExplicitSolver
@@ -130,7 +131,7 @@ def pressurised_wall(material: Material, *, a: float, b: float, p: float, cells:
     rho = material.density
     h = (b - a) / cells
     sp = h / 2
-    axis = [GridBoundary(0, "lower", "slip"), GridBoundary(2, "lower", "slip"), GridBoundary(2, "upper", "slip")]
+    axis = axis_faces()
     if geometry == "cylinder":
         grid = Grid(origin=(0.0, 0.0, -h / 2), cell_size=h, shape=(int(round(b / h)) + 3, 2, 1))
         faces = [*axis, GridBoundary(1, "lower", "slip"), GridBoundary(1, "upper", "slip")]
