@@ -21,7 +21,11 @@ or ``pip install taichi``); without it this script says so and exits with status
 Usage::
 
     python benchmarks/peer_taichi.py [--threads 2] [--n-grid 64 128] [--steps 50] [--repeat 3]
-                                     [--cells 24] [--transfer musl] [--json]
+                                     [--cells 24] [--transfer musl] [--shape gimp]
+                                     [--anti-locking fbar] [--json]
+
+``--transfer usl --shape bspline --anti-locking none`` gives tissuempm the peer's structure (one
+P2G, one G2P, quadratic B-spline weights, no volumetric averaging); its laws stay hyperelastic.
 """
 
 import argparse
@@ -138,6 +142,10 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3, help="alternating blocks per case; medians reported")
     ap.add_argument("--cells", type=int, default=24, help="tissuempm block cells per side (24: 110,592 particles)")
     ap.add_argument("--transfer", default="musl", choices=["musl", "usl"])
+    ap.add_argument("--shape", default="gimp", choices=["gimp", "bspline"],
+                    help="tissuempm's shape function (gimp: uGIMP, the default; bspline: the peer's)")
+    ap.add_argument("--anti-locking", default="fbar", choices=["fbar", "none"],
+                    help="tissuempm's volumetric averaging (fbar: the solver's default; none: the peer's)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     try:
@@ -162,7 +170,8 @@ def main() -> None:
             cpu[f"taichi_mpm3d_{g}"].append(c)
             ti.reset()
         for case in ours_cases:
-            r = run_case(case, "float64", args.threads, args.cells, 2, 20, transfer=args.transfer, repeat=1)
+            r = run_case(case, "float64", args.threads, args.cells, 2, 20, shape=args.shape, transfer=args.transfer,
+                         repeat=1, anti_locking=args.anti_locking)
             sizes[case] = r["particles"]
             wall[case].append(r["particle_steps_per_s"])
             cpu[case].append(r["particle_steps_per_cpu_s"])
@@ -171,7 +180,8 @@ def main() -> None:
     best = max(rates[f"taichi_mpm3d_{g}"] for g in args.n_grid)
     best_cpu = max(cpu_rates[f"taichi_mpm3d_{g}"] for g in args.n_grid)
     rec = {
-        "threads": args.threads, "precision": "float64", "transfer": args.transfer, "particles": sizes,
+        "threads": args.threads, "precision": "float64", "transfer": args.transfer, "shape_function": args.shape,
+        "anti_locking": args.anti_locking, "particles": sizes,
         "particle_steps_per_s": rates, "particle_steps_per_cpu_s": cpu_rates, "blocks": wall,
         "ratio_to_fastest_peer": {c: rates[c] / best for c in ours_cases},
         "cpu_ratio_to_fastest_peer": {c: cpu_rates[c] / best_cpu for c in ours_cases}, "machine": machine(),
@@ -179,7 +189,8 @@ def main() -> None:
     if args.json:
         print(json.dumps(rec))
         return
-    print(f"threads={args.threads} float64, medians of {args.repeat} alternating blocks; "
+    print(f"threads={args.threads} float64, {args.transfer}, {args.shape}, {args.anti_locking}, "
+          f"medians of {args.repeat} alternating blocks; "
           f"machine: {rec['machine']['cpu']}")
     print(f"  {'case':22s} {'particles':>9s}  {'M/s wall':>8s}  {'M/CPU-s':>8s}  ratio to the fastest peer (wall, CPU)")
     for name in names:
