@@ -14,6 +14,9 @@ nose; the block face is y = 0), with the speed at 50 us (early drag) and at the 
     python benchmarks/gelatin_convergence.py --plot        # the figure from the records
     python benchmarks/gelatin_convergence.py --levels "1 mm" --records benchmarks/results/gelatin_sphere_checks.jsonl \\
         --figure docs/figures/gelatin_sphere_checks.png --no-published   # numerical checks, kept apart
+    python benchmarks/gelatin_convergence.py --plot --records A.jsonl B.jsonl --only "TAG 1" "TAG 2" \
+        --figure F.png                                   # records of several files and tags in one figure
+    python benchmarks/gelatin_convergence.py --resistance --records A.jsonl --only "TAG"   # drag against speed
 
 Records before the symmetry fix of free bodies (a quarter model's sphere was pushed toward its
 symmetry planes: see src/tissuempm/mpm/free_bodies.py) are kept in
@@ -35,6 +38,8 @@ EXAMPLE = ROOT / "examples/gelatin_sphere_axisymmetric.toml"
 RECORDS = ROOT / "benchmarks/results/gelatin_sphere.jsonl"
 FIGURE = ROOT / "docs/figures/gelatin_sphere.png"
 RADIUS = 2.25e-3
+MASS = 0.3746e-3  # the example's sphere [kg]
+SPEEDS = (150.0, 120.0, 100.0, 80.0, 60.0, 40.0, 30.0, 20.0, 10.0)  # where --resistance reads the drag [m/s]
 
 
 def run_level(cell: str, sets: list[str], tag: str, example: Path = EXAMPLE) -> dict:
@@ -65,6 +70,46 @@ def run_level(cell: str, sets: list[str], tag: str, example: Path = EXAMPLE) -> 
     }  # fmt: skip
 
 
+def resistance(record: dict, speeds=SPEEDS, half_window: int = 5) -> list[tuple[float, float, float]]:
+    """The sphere's drag F = -m dv/dt where its speed first falls below each of ``speeds``: a central
+    difference over +- ``half_window`` history samples (+- 50 us at the example's 10 us). Returns
+    (F [N], t [ms], nose [mm]) per speed; NaN where the record never gets that slow."""
+    t, v, y = np.asarray(record["t_ms"]) * 1e-3, np.asarray(record["v"]), np.asarray(record["y_mm"])
+    out = []
+    for speed in speeds:
+        below = np.flatnonzero(v < speed)
+        if below.size == 0 or below[0] == 0:
+            out.append((math.nan, math.nan, math.nan))
+            continue
+        i = int(below[0])
+        lo, hi = max(0, i - half_window), min(len(t) - 1, i + half_window)
+        out.append((-MASS * (v[hi] - v[lo]) / (t[hi] - t[lo]), 1e3 * t[i], y[i] + 1e3 * RADIUS))
+    return out
+
+
+def mean_resistance(record: dict, t0_ms: float) -> tuple[float, float, float]:
+    """The mean drag of the flight after ``t0_ms``: the sphere's kinetic energy then over the distance it
+    still travels, F = m v(t0)^2 / (2 (depth - nose(t0))). Returns (F [N], v(t0) [m/s], nose(t0) [mm])."""
+    t, v, y = np.asarray(record["t_ms"]), np.asarray(record["v"]), np.asarray(record["y_mm"]) + 1e3 * RADIUS
+    v0, y0 = float(np.interp(t0_ms, t, v)), float(np.interp(t0_ms, t, y))
+    return 0.5 * MASS * v0**2 / (1e-3 * (record["depth_mm"] - y0)), v0, y0
+
+
+def print_resistance(records: list[dict], after_ms=(0.3, 0.5, 1.0)) -> None:
+    """Tables of ``resistance`` (drag, time and nose position at each of ``SPEEDS``) and of
+    ``mean_resistance`` after each of ``after_ms`` for each record."""
+    print("drag F = -m dv/dt [N] (time [ms], nose [mm]) where the speed first falls below v")
+    print(f"{'tag':48s} {'cell':>7s} " + " ".join(f"{f'v={v:g}':>17s}" for v in SPEEDS) + "   depth")
+    for r in records:
+        cells = " ".join(f"{f:5.1f} ({t:4.2f}, {y:5.1f})" for f, t, y in resistance(r))
+        print(f"{r['tag'][:48]:48s} {r['cell']:>7s} {cells}  {r['depth_mm']:6.1f}")
+    print("mean drag after t0, m v(t0)^2 / (2 (depth - nose(t0))) [N] (v(t0) [m/s], nose(t0) [mm])")
+    print(f"{'tag':48s} {'cell':>7s} " + " ".join(f"{f't0={t:g} ms':>20s}" for t in after_ms))
+    for r in records:
+        cells = " ".join(f"{f:5.2f} ({v:5.1f}, {y:5.1f})" for f, v, y in (mean_resistance(r, t) for t in after_ms))
+        print(f"{r['tag'][:48]:48s} {r['cell']:>7s} {cells}")
+
+
 def plot(records: list[dict], figure: Path = FIGURE, published: bool = True) -> None:
     import matplotlib
 
@@ -84,7 +129,8 @@ def plot(records: list[dict], figure: Path = FIGURE, published: bool = True) -> 
                 a.annotate("perforates the block", (h, r["depth_mm"]), textcoords="offset points", xytext=(-110, -4),
                            fontsize=8, arrowprops={"arrowstyle": "->"})  # fmt: skip
         for r in rs if not old else []:
-            b.plot(r["t_ms"], r["v"], ls="--" if "no failure" in tag else "-", label=f"{tag}, h = {r['cell']}")
+            dashed = "no failure" in tag or "without failure" in tag
+            b.plot(r["t_ms"], r["v"], ls="--" if dashed else "-", label=f"{tag}, h = {r['cell']}")
     for lo, hi, name, col in ((48.2, 51.2, "20 %, 10 C (Maiden 2015)", "tab:green"),
                               (77.0, 81.2, "20 %, 20 C (Maiden 2015)", "tab:orange"),
                               (75.0, 95.0, "10 %, 4 C (FBI window)", "tab:purple")) if published else ():  # fmt: skip
@@ -111,19 +157,27 @@ def main() -> None:
     ap.add_argument("--tag", default="axisymmetric")
     ap.add_argument("--example", type=Path, default=EXAMPLE)
     ap.add_argument("--plot", action="store_true")
-    ap.add_argument("--records", type=Path, default=RECORDS, help="JSON-lines file the records are appended to")
+    ap.add_argument("--records", type=Path, nargs="+", default=[RECORDS],
+                    help="JSON-lines files: the new records are appended to the first, the figure draws them all")
+    ap.add_argument("--only", nargs="+", default=None, metavar="TAG", help="draw only the records of these tags")
     ap.add_argument("--figure", type=Path, default=FIGURE, help="figure drawn from all the records of --records")
+    ap.add_argument("--resistance", action="store_true",
+                    help="print the drag against the speed (F = -m dv/dt) of the records instead of plotting")
     ap.add_argument("--no-published", action="store_true", help="leave the published depths out (numerical checks)")
     args = ap.parse_args()
     for cell in args.levels:
         rec = run_level(cell, args.sets, args.tag, args.example.resolve())
-        args.records.parent.mkdir(parents=True, exist_ok=True)
-        with open(args.records, "a") as f:
+        args.records[0].parent.mkdir(parents=True, exist_ok=True)
+        with open(args.records[0], "a") as f:
             f.write(json.dumps(rec) + "\n")
         print(json.dumps({k: v for k, v in rec.items() if k not in ("t_ms", "y_mm", "v")}), flush=True)
-    if args.plot or args.levels:
-        records = [json.loads(line) for line in args.records.read_text().splitlines() if line.strip()]
-        plot([r for r in records if math.isfinite(r["depth_mm"])], args.figure, not args.no_published)
+    if args.plot or args.levels or args.resistance:
+        records = [json.loads(line) for f in args.records for line in f.read_text().splitlines() if line.strip()]
+        keep = [r for r in records if math.isfinite(r["depth_mm"]) and (args.only is None or r["tag"] in args.only)]
+        if args.resistance:
+            print_resistance(keep)
+        else:
+            plot(keep, args.figure, not args.no_published)
 
 
 if __name__ == "__main__":
