@@ -17,6 +17,8 @@ nose; the block face is y = 0), with the speed at 50 us (early drag) and at the 
     python benchmarks/gelatin_convergence.py --plot --records A.jsonl B.jsonl --only "TAG 1" "TAG 2" \
         --figure F.png                                   # records of several files and tags in one figure
     python benchmarks/gelatin_convergence.py --resistance --records A.jsonl --only "TAG"   # drag against speed
+    python benchmarks/gelatin_convergence.py --levels "0.25 mm" --from-history RUN --set ... --tag "TAG"
+        # the record of a run folder (a level stopped early: status "stopped", its depth so far)
 
 Records before the symmetry fix of free bodies (a quarter model's sphere was pushed toward its
 symmetry planes: see src/tissuempm/mpm/free_bodies.py) are kept in
@@ -55,19 +57,37 @@ def run_level(cell: str, sets: list[str], tag: str, example: Path = EXAMPLE) -> 
     with tempfile.TemporaryDirectory() as out:
         t0 = time.perf_counter()
         runner = Runner(scenario, out)
-        n = runner.problem.particles.n
         summary = runner.run()
         wall = time.perf_counter() - t0
         h = HistoryLog(Path(out) / HISTORY, {}).read()
+    return record(h, cell, sets, tag, example.name, wall, summary.status)
+
+
+def record(h: dict, cell: str, sets: list[str], tag: str, example: str, wall: float, status: str) -> dict:
+    """The record of a run from its history columns ``h`` (``HistoryLog.read``)."""
     t, y, v = h["time"], h["position_sphere_y"], h["velocity_sphere_y"]
     return {
-        "tag": tag, "example": example.name, "cell": cell, "sets": sets, "particles": n, "steps": int(h["step"][-1]),
+        "tag": tag, "example": example, "cell": cell, "sets": sets, "particles": int(h["particles"][0]),
+        "steps": int(h["step"][-1]),
         "depth_mm": 1e3 * (float(np.nanmax(y)) + RADIUS), "v50_m_s": float(np.interp(50e-6, t, v)),
         "v_end_m_s": float(v[-1]), "t_end_ms": 1e3 * float(t[-1]), "eroded": int(h["eroded_count"][-1]),
         "bulk_viscosity_work_J": float(h["bulk_viscosity_work"][-1]), "wall_s": wall,
-        "status": summary.status,
+        "status": status,
         "t_ms": (1e3 * t).tolist(), "y_mm": (1e3 * y).tolist(), "v": v.tolist(),
     }  # fmt: skip
+
+
+def record_of_folder(folder: Path, cell: str, sets: list[str], tag: str, example: Path) -> dict:
+    """The record of a run folder written by ``tissuempm run`` (or left by a stopped level): its
+    ``history.csv``; status and wall time from ``summary.json`` where the run finished, else
+    ``"stopped"`` (the depth is then the nose's deepest position so far, not the final depth)."""
+    from tissuempm.io.history import HistoryLog
+    from tissuempm.scenarios.runner import HISTORY
+
+    h = HistoryLog(folder / HISTORY, {}).read()
+    summary = folder / "summary.json"
+    done = json.loads(summary.read_text()) if summary.exists() else {}
+    return record(h, cell, sets, tag, example.name, float(done.get("wall_s", math.nan)), done.get("status", "stopped"))
 
 
 def resistance(record: dict, speeds=SPEEDS, half_window: int = 5) -> list[tuple[float, float, float]]:
@@ -91,7 +111,11 @@ def mean_resistance(record: dict, t0_ms: float) -> tuple[float, float, float]:
     """The mean drag of the flight after ``t0_ms``: the sphere's kinetic energy then over the distance it
     still travels, F = m v(t0)^2 / (2 (depth - nose(t0))). Returns (F [N], v(t0) [m/s], nose(t0) [mm])."""
     t, v, y = np.asarray(record["t_ms"]), np.asarray(record["v"]), np.asarray(record["y_mm"]) + 1e3 * RADIUS
+    if t0_ms > t[-1]:
+        return math.nan, math.nan, math.nan
     v0, y0 = float(np.interp(t0_ms, t, v)), float(np.interp(t0_ms, t, y))
+    if record["status"] != "completed":  # a stopped run has not reached its depth
+        return math.nan, v0, y0
     return 0.5 * MASS * v0**2 / (1e-3 * (record["depth_mm"] - y0)), v0, y0
 
 
@@ -116,7 +140,7 @@ def plot(records: list[dict], figure: Path = FIGURE, published: bool = True) -> 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.5))
+    fig, (a, b) = plt.subplots(1, 2, figsize=(13, 5.5))
     for tag in sorted({r["tag"] for r in records}):
         rs = sorted((r for r in records if r["tag"] == tag), key=lambda r: -float(r["cell"].split()[0]))
         hs = [float(r["cell"].split()[0]) for r in rs]
@@ -139,11 +163,11 @@ def plot(records: list[dict], figure: Path = FIGURE, published: bool = True) -> 
     a.set_ylabel("penetration depth (nose) [mm]")
     a.invert_xaxis()
     a.set_title("4.5 mm steel sphere at 180 m/s into gelatin")
-    a.legend(fontsize=8)
+    a.legend(fontsize=7, loc="upper left")
     b.set_xlabel("t [ms]")
     b.set_ylabel("sphere speed [m/s]")
     b.set_title("sphere speed against time")
-    b.legend(fontsize=7)
+    b.legend(fontsize=6, loc="upper right")
     fig.tight_layout()
     figure.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(figure, dpi=120)
@@ -161,12 +185,19 @@ def main() -> None:
                     help="JSON-lines files: the new records are appended to the first, the figure draws them all")
     ap.add_argument("--only", nargs="+", default=None, metavar="TAG", help="draw only the records of these tags")
     ap.add_argument("--figure", type=Path, default=FIGURE, help="figure drawn from all the records of --records")
+    ap.add_argument("--from-history", type=Path, default=None, metavar="RUN",
+                    help="append the record of an existing run folder (its history.csv) at the one --levels cell size")
     ap.add_argument("--resistance", action="store_true",
                     help="print the drag against the speed (F = -m dv/dt) of the records instead of plotting")
     ap.add_argument("--no-published", action="store_true", help="leave the published depths out (numerical checks)")
     args = ap.parse_args()
+    if args.from_history is not None and len(args.levels) != 1:
+        ap.error("--from-history takes the run's cell size as the one value of --levels")
     for cell in args.levels:
-        rec = run_level(cell, args.sets, args.tag, args.example.resolve())
+        if args.from_history is not None:
+            rec = record_of_folder(args.from_history, cell, args.sets, args.tag, args.example)
+        else:
+            rec = run_level(cell, args.sets, args.tag, args.example.resolve())
         args.records[0].parent.mkdir(parents=True, exist_ok=True)
         with open(args.records[0], "a") as f:
             f.write(json.dumps(rec) + "\n")
