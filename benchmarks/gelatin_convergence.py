@@ -14,7 +14,7 @@ nose; the block face is y = 0), with the speed at 50 us (early drag) and at the 
     python benchmarks/gelatin_convergence.py --plot        # the figure from the records
     python benchmarks/gelatin_convergence.py --levels "1 mm" --records benchmarks/results/gelatin_sphere_checks.jsonl \\
         --figure docs/figures/gelatin_sphere_checks.png --no-published   # numerical checks, kept apart
-    python benchmarks/gelatin_convergence.py --plot --records A.jsonl B.jsonl --only "TAG 1" "TAG 2" \
+    python benchmarks/gelatin_convergence.py --plot --records A.jsonl B.jsonl --only "TAG 1" "TAG 2" \\
         --figure F.png                                   # records of several files and tags in one figure
     python benchmarks/gelatin_convergence.py --resistance --records A.jsonl --only "TAG"   # drag against speed
     python benchmarks/gelatin_convergence.py --levels "0.25 mm" --from-history RUN --set ... --tag "TAG"
@@ -60,10 +60,10 @@ def run_level(cell: str, sets: list[str], tag: str, example: Path = EXAMPLE) -> 
         summary = runner.run()
         wall = time.perf_counter() - t0
         h = HistoryLog(Path(out) / HISTORY, {}).read()
-    return record(h, cell, sets, tag, example.name, wall, summary.status)
+    return record_of_history(h, cell, sets, tag, example.name, wall, summary.status)
 
 
-def record(h: dict, cell: str, sets: list[str], tag: str, example: str, wall: float, status: str) -> dict:
+def record_of_history(h: dict, cell: str, sets: list[str], tag: str, example: str, wall: float, status: str) -> dict:
     """The record of a run from its history columns ``h`` (``HistoryLog.read``)."""
     t, y, v = h["time"], h["position_sphere_y"], h["velocity_sphere_y"]
     return {
@@ -87,7 +87,8 @@ def record_of_folder(folder: Path, cell: str, sets: list[str], tag: str, example
     h = HistoryLog(folder / HISTORY, {}).read()
     summary = folder / "summary.json"
     done = json.loads(summary.read_text()) if summary.exists() else {}
-    return record(h, cell, sets, tag, example.name, float(done.get("wall_s", math.nan)), done.get("status", "stopped"))
+    wall = float(done.get("wall_s", math.nan))
+    return record_of_history(h, cell, sets, tag, example.name, wall, done.get("status", "stopped"))
 
 
 def resistance(record: dict, speeds=SPEEDS, half_window: int = 5) -> list[tuple[float, float, float]]:
@@ -183,7 +184,8 @@ def main() -> None:
     ap.add_argument("--plot", action="store_true")
     ap.add_argument("--records", type=Path, nargs="+", default=[RECORDS],
                     help="JSON-lines files: the new records are appended to the first, the figure draws them all")
-    ap.add_argument("--only", nargs="+", default=None, metavar="TAG", help="draw only the records of these tags")
+    ap.add_argument("--only", nargs="+", default=None, metavar="TAG",
+                    help="use only the records of these tags (figure, --resistance)")
     ap.add_argument("--figure", type=Path, default=FIGURE, help="figure drawn from all the records of --records")
     ap.add_argument("--from-history", type=Path, default=None, metavar="RUN",
                     help="append the record of an existing run folder (its history.csv) at the one --levels cell size")
