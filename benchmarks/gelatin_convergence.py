@@ -11,7 +11,8 @@ nose; the block face is y = 0), with the speed at 50 us (early drag) and at the 
     python benchmarks/gelatin_convergence.py --levels "1 mm" --set 'grid.upper=["12 mm", "100 mm", "12 mm"]' \\
         --set 'body[1].shape.upper=["12 mm", "95 mm", "12 mm"]' --tag narrow
     python benchmarks/gelatin_convergence.py --example examples/gelatin_sphere.toml --levels "1 mm" --tag quarter
-    python benchmarks/gelatin_convergence.py --plot        # the figure from the records
+    python benchmarks/gelatin_convergence.py --plot        # the figure from the records (and, printed, each
+        # tag's depths with the observed order and Richardson limit of its three finest completed levels)
     python benchmarks/gelatin_convergence.py --levels "1 mm" --records benchmarks/results/gelatin_sphere_checks.jsonl \\
         --figure docs/figures/gelatin_sphere_checks.png --no-published   # numerical checks, kept apart
     python benchmarks/gelatin_convergence.py --plot --records A.jsonl B.jsonl --only "TAG 1" "TAG 2" \\
@@ -135,6 +136,37 @@ def print_resistance(records: list[dict], after_ms=(0.3, 0.5, 1.0)) -> None:
         print(f"{r['tag'][:48]:48s} {r['cell']:>7s} {cells}")
 
 
+def observed_order(levels: list[tuple[float, float]]) -> tuple[float, float, float] | None:
+    """Observed order and Richardson limit of the three finest of ``levels`` (cell size h, depth), where
+    they refine by one ratio r (within 5 %): p = ln((d2 - d1) / (d3 - d2)) / ln r and
+    d_inf = d3 + (d3 - d2) / (r^p - 1). Returns (r, p, d_inf); None for fewer than three levels, uneven
+    ratios, or increments that change sign or do not shrink (no asymptotic range yet).
+
+    >>> r, p, d = observed_order([(1.0, 50.0), (0.5, 75.0), (0.25, 87.5)])
+    >>> round(r, 6), round(p, 6), round(d, 6)
+    (2.0, 1.0, 100.0)
+    """
+    if len(levels) < 3:
+        return None
+    (h1, d1), (h2, d2), (h3, d3) = sorted(levels, reverse=True)[-3:]
+    r, r2 = h1 / h2, h2 / h3
+    if abs(r2 / r - 1.0) > 0.05 or (d2 - d1) * (d3 - d2) <= 0.0 or abs(d3 - d2) >= abs(d2 - d1):
+        return None
+    p = math.log((d2 - d1) / (d3 - d2)) / math.log(r)
+    return r, p, d3 + (d3 - d2) / (r**p - 1.0)
+
+
+def print_order(records: list[dict]) -> None:
+    """The depth's observed order and Richardson limit (:func:`observed_order`) of each tag's completed levels."""
+    for tag in sorted({r["tag"] for r in records}):
+        levels = [(float(r["cell"].split()[0]), r["depth_mm"]) for r in records
+                  if r["tag"] == tag and r["status"] == "completed"]  # fmt: skip
+        got = observed_order(levels)
+        text = ("no observed order (fewer than three levels of one ratio, or increments that do not shrink)"
+                if got is None else "ratio {:.2f}: observed order {:.2f}, Richardson limit {:.1f} mm".format(*got))
+        print(f"{tag[:48]:48s} depth {', '.join(f'{d:.1f}' for _, d in sorted(levels, reverse=True))} mm; {text}")
+
+
 def plot(records: list[dict], figure: Path = FIGURE, published: bool = True) -> None:
     import matplotlib
 
@@ -207,6 +239,7 @@ def main() -> None:
     if args.plot or args.levels or args.resistance:
         records = [json.loads(line) for f in args.records for line in f.read_text().splitlines() if line.strip()]
         keep = [r for r in records if math.isfinite(r["depth_mm"]) and (args.only is None or r["tag"] in args.only)]
+        print_order(keep)
         if args.resistance:
             print_resistance(keep)
         else:
