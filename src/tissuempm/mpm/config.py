@@ -5,13 +5,13 @@ step to the next (a ramped gravity, a driver velocity, a manufactured body
 force) go into a :class:`Control` passed to :meth:`ExplicitSolver.step`.
 """
 
-import os
 from dataclasses import dataclass, field
 from typing import Annotated, Any, Literal, get_args
 
 import numpy as np
 from pydantic import AfterValidator, Field
 
+from tissuempm.machine import usable_cores
 from tissuempm.mpm.tracking import check_track
 from tissuempm.options import Acceleration, Number, Rate, Time, check
 from tissuempm.precision import PRECISIONS
@@ -195,8 +195,9 @@ class SolverConfig:
 
     @property
     def n_threads(self) -> int:
-        """Threads used on the CPU (``threads`` or the number of cores)."""
-        return self.threads or os.cpu_count() or 1
+        """Threads used on the CPU (``threads`` or the cores this process may use,
+        :func:`tissuempm.machine.usable_cores`)."""
+        return self.threads or usable_cores()
 
 
 @dataclass(kw_only=True)

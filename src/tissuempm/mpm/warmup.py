@@ -36,6 +36,8 @@ from typing import Any
 
 import warp as wp
 
+from tissuempm.machine import usable_cores
+
 PCH_OPTIONS = ("cpu_compiler_flags", "optimization_level", "fuse_fp", "fast_math", "mode")
 """Module options that select Warp's precompiled header on the CPU (one header per thread and set)."""
 
@@ -44,12 +46,9 @@ MAX_WORKERS = 4
 
 
 def default_workers() -> int:
-    """Compile threads: the CPU cores this process may use, at most :data:`MAX_WORKERS`."""
-    try:
-        n = len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not on Linux
-        n = os.cpu_count() or 1
-    return max(1, min(n, MAX_WORKERS))
+    """Compile threads: the CPU cores this process may use (:func:`tissuempm.machine.usable_cores`),
+    at most :data:`MAX_WORKERS`."""
+    return min(usable_cores(), MAX_WORKERS)
 
 
 def pch_key(module: Any) -> tuple:

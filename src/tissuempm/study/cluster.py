@@ -20,11 +20,11 @@ study sets ``threads``.
 
 import logging
 import math
-import os
 from dataclasses import dataclass
 
 import numpy as np
 
+from tissuempm.machine import usable_cores
 from tissuempm.scenarios.schema import Scenario
 
 BASE_BYTES = 400e6
@@ -64,14 +64,6 @@ def memory_estimate(scenario: Scenario) -> float:
     return BASE_BYTES + PARTICLE_BYTES * particle_bound(scenario) + NODE_BYTES * nodes * fields
 
 
-def cores() -> int:
-    """Cores this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        return os.cpu_count() or 1
-
-
 def available_memory() -> float:
     """Memory available to new processes [bytes]."""
     import psutil
@@ -88,7 +80,7 @@ def size_local(
     ``threads``: solver threads per run (None: fill the cores); ``workers``: force the number of
     workers (``--workers``); ``n_cores`` and ``memory`` default to this machine's.
     """
-    c = n_cores or cores()
+    c = n_cores or usable_cores()
     a = memory if memory is not None else available_memory()
     fit = max(1, int(a // memory_per_run))
     if workers is None:
