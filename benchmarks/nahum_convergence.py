@@ -16,6 +16,7 @@ tabled apart and drawn as open markers: how far a probe moves with them is the l
 
 import argparse
 import json
+from collections.abc import Sequence
 from pathlib import Path
 
 import matplotlib
@@ -55,10 +56,9 @@ def table(records: list[tuple[float, dict]]) -> str:
 
 
 def figure(records: list[tuple[float, dict]], path: Path, title: str,
-           shifted: list[tuple[float, dict]] | None = None) -> None:
+           shifted: Sequence[tuple[float, dict]] = ()) -> None:
     """Peak force and probe pressures against h; ``shifted`` levels (grid moved by h/2) as open markers."""
     h = [r[0] for r in records]
-    moved = shifted or []
     fig, (ax_f, ax_p) = plt.subplots(1, 2, figsize=(12, 4.2))
     ax_f.plot(h, [r[1]["force"]["peak"] / 1e3 for r in records], "ko-", label="model")
     ax_f.axhline(records[0][1]["published"]["peak_impact_force"] / 1e3, color="C3", ls="--", label="Nahum 1977")
@@ -67,8 +67,8 @@ def figure(records: list[tuple[float, dict]], path: Path, title: str,
     for k, name in enumerate(PROBES):
         ax_p.plot(h, [r[1]["probes"][name]["at_force_peak"] / 1e3 for r in records], "o-", color=f"C{k}",
                   label=f"{name} at the force peak")
-        if moved:
-            ax_p.plot([r[0] for r in moved], [r[1]["probes"][name]["at_force_peak"] / 1e3 for r in moved], "o",
+        if shifted:
+            ax_p.plot([r[0] for r in shifted], [r[1]["probes"][name]["at_force_peak"] / 1e3 for r in shifted], "o",
                       mfc="none", color=f"C{k}", ms=9, label="grid moved by h/2 (open)" if k == 0 else None)
         published = records[0][1]["published"].get(f"{name}_peak_pressure")
         if published is not None:

@@ -6,8 +6,8 @@ PBS) is usually pinned to a subset of them (the CPU affinity mask), and a contai
 core of the host. Starting one solver thread, compile thread or test worker per host core there
 oversubscribes the cores the job actually has, and each thread then waits on the others.
 
-:func:`usable_cores` takes the smallest of the three limits: the affinity mask, the cgroup quota
-(v2 ``cpu.max``, v1 ``cpu.cfs_quota_us`` / ``cpu.cfs_period_us``, rounded up) and the host count.
+:func:`usable_cores` takes the smaller of the two limits: the affinity mask (the host count where there is
+none) and the cgroup quota (v2 ``cpu.max``, v1 ``cpu.cfs_quota_us`` / ``cpu.cfs_period_us``, rounded up).
 """
 
 import math
@@ -46,7 +46,7 @@ def cgroup_quota(root: Path = CGROUP_ROOT) -> float | None:
 
 
 def usable_cores() -> int:
-    """Cores this process may run on: min(affinity mask, ceil(cgroup quota), host cores), at least 1."""
+    """Cores this process may run on: min(affinity mask, ceil(cgroup quota)), at least 1."""
     try:
         n = len(os.sched_getaffinity(0))
     except AttributeError:  # pragma: no cover - not on Linux
