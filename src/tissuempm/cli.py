@@ -83,13 +83,13 @@ err_console = Console(stderr=True)
 
 
 def _fail(message: str) -> NoReturn:
-    err_console.print(f"[bold red]error:[/] {printable(message)}", highlight=False)
+    err_console.print(f"[bold red]error:[/] {printable(message)}", highlight=False, soft_wrap=True)
     raise typer.Exit(code=2)
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:  # noqa: ANN001
     """Warnings (e.g. a skipped user library file) as one ``warning:`` line on stderr, without source lines."""
-    err_console.print(f"[yellow]warning:[/] {printable(message)}", highlight=False)
+    err_console.print(f"[yellow]warning:[/] {printable(message)}", highlight=False, soft_wrap=True)
 
 
 def entry() -> None:
@@ -110,7 +110,7 @@ def entry() -> None:
         except OSError:
             where = ""
         err_console.print(f"[bold red]internal error:[/] {printable(f'{type(exc).__name__}: {exc}')}{printable(where)} "
-                          "(a bug in tissuempm: please report it with that file)", highlight=False)
+                          "(a bug in tissuempm: please report it with that file)", highlight=False, soft_wrap=True)
         sys.exit(1)
 
 

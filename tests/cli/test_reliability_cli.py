@@ -104,3 +104,16 @@ def test_a_hostile_expression_skips_only_its_file(user_dir, expression):
     assert res.exit_code == 0, res.output
     assert "skipping user library file" in said(res) and "characters long: at most 1000" in said(res)
     assert time.perf_counter() - t0 < 5.0
+
+
+@pytest.mark.parametrize("command", [["run", "{path}", "--out", "{out}"], ["wound", "{out}"], ["brain", "{out}"],
+                                     ["calibrate", "{path}"], ["study", "{path}"], ["warmup", "{path}"]])
+def test_an_error_prints_a_long_path_whole(tmp_path, command):
+    """An error line is not wrapped at the terminal's width (80 columns under CliRunner): a path in it stays
+    whole, so it can be copied (rich's hard wrap broke one mid-name, e.g. ``notes.tx\\nt``)."""
+    deep = tmp_path / ("a_folder_whose_name_alone_is_longer_than_a_terminal_line_" * 2)
+    path, out = deep / "missing_input.toml", deep / "missing_run_folder"
+    res = cli.invoke(app, [a.format(path=path, out=out) for a in command])
+    assert res.exit_code == 2, res.output
+    named = str(path) if "{path}" in command else str(out)
+    assert len(named) > 120 and named in res.output, res.output

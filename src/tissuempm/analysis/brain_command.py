@@ -74,7 +74,7 @@ def brain(
     try:
         report = analyse_brain(run_dir, brain_materials or None, skull, probe or None, strain)
     except AnalysisError as e:
-        err_console.print(f"[red]error:[/red] {escape(str(e))}", highlight=False)
+        err_console.print(f"[red]error:[/red] {escape(str(e))}", highlight=False, soft_wrap=True)
         raise typer.Exit(2) from None
     out_dir = out if out is not None else run_dir / "brain"
     data = report.to_dict()

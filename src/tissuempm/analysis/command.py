@@ -99,7 +99,7 @@ def wound(
 ) -> None:
     """Measure the wound of a penetration run: perforation, entry/exit wounds, tract profile (docs/wound.md)."""
     def fail(text: object) -> typer.Exit:
-        err_console.print(f"[red]error:[/red] {message(text)}", highlight=False)
+        err_console.print(f"[red]error:[/red] {message(text)}", highlight=False, soft_wrap=True)
         return typer.Exit(2)
 
     if out is not None and not out.strip():

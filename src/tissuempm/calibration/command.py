@@ -209,12 +209,13 @@ def calibrate(
     """Fit a material model to stress-strain data files (seed 004 Sec. 2.3) and write the results."""
     err = Console(stderr=True)
     if out is not None and not out.strip():
-        err.print("[red]error:[/red] --out '': give the output folder (or leave --out out for the default)")
+        err.print("[red]error:[/red] --out '': give the output folder (or leave --out out for the default)",
+                  soft_wrap=True)
         raise typer.Exit(2)
     try:
         cfg = load_config(config)
     except ConfigError as e:
-        err.print(f"[red]error:[/red] {message(e)}", highlight=False)
+        err.print(f"[red]error:[/red] {message(e)}", highlight=False, soft_wrap=True)
         raise typer.Exit(2) from None
     base = config.resolve().parent
     out_dir = Path(out) if out is not None else base / f"{config.stem}_calibration"
@@ -222,7 +223,7 @@ def calibrate(
     try:
         check_output(out_dir, name)
     except ConfigError as e:
-        err.print(f"[red]error:[/red] {message(e)}", highlight=False)
+        err.print(f"[red]error:[/red] {message(e)}", highlight=False, soft_wrap=True)
         raise typer.Exit(2) from None
     total = cfg.optimizer.max_local_runs or None if cfg.optimizer.method == "globalsearch" else (
         cfg.optimizer.maxiter + cfg.optimizer.polish)
@@ -236,7 +237,7 @@ def calibrate(
         try:
             result = run_config(cfg, base, progress)
         except (DataError, ConfigError, ValueError, RuntimeError) as e:
-            err.print(f"[red]error:[/red] {message(e)}", highlight=False)
+            err.print(f"[red]error:[/red] {message(e)}", highlight=False, soft_wrap=True)
             raise typer.Exit(2) from None
     from tissuempm.calibration.results import to_json, write_results
     from tissuempm.io.staging import staged
@@ -246,13 +247,13 @@ def calibrate(
             result, folder, name, options=cfg.output.config(), source=f"tissuempm calibrate {config.name}"))
     except OSError as e:
         err.print(f"[red]error:[/red] writing the results to {escape(str(out_dir))} failed: {escape(str(e))}; "
-                  "nothing was written", highlight=False)
+                  "nothing was written", highlight=False, soft_wrap=True)
         raise typer.Exit(2) from None
     warnings = result.warnings()
     for line in _widening_lines(result):
         err.print(f"[yellow]note:[/yellow] {escape(line)}", highlight=False)
     for w in warnings:
-        err.print(f"[yellow]warning:[/yellow] {escape(w)}", highlight=False)
+        err.print(f"[yellow]warning:[/yellow] {escape(w)}", highlight=False, soft_wrap=True)
     if json_output:
         sys.stdout.write(to_json(result) + "\n")
         return

@@ -182,10 +182,10 @@ def digitize(
         files = dg.write_curves(curves, folder, x_quantity=p.x_quantity, y_unit=p.y_unit, source=image_path.name)
         (folder / "calibrate_data.toml").write_text(dg.data_tables(curves, files))
     except dg.DigitizeError as e:
-        err.print(f"[red]error:[/red] {escape(str(e))}", highlight=False)
+        err.print(f"[red]error:[/red] {escape(str(e))}", highlight=False, soft_wrap=True)
         raise typer.Exit(2) from None
     except OSError as e:
-        err.print(f"[red]error:[/red] writing the results failed: {escape(str(e))}", highlight=False)
+        err.print(f"[red]error:[/red] writing the results failed: {escape(str(e))}", highlight=False, soft_wrap=True)
         raise typer.Exit(2) from None
     info = dg.summary(curves, p.x_axis, p.y_axis, files, check)
     (folder / "digitized.json").write_text(json.dumps(info, indent=2) + "\n")

@@ -23,7 +23,7 @@ def _group() -> None:
 
 
 def _fail(error: Exception | str) -> typer.Exit:
-    console.print(f"[red]error:[/red] {message(error)}", highlight=False)
+    console.print(f"[red]error:[/red] {message(error)}", highlight=False, soft_wrap=True)
     return typer.Exit(2)
 
 

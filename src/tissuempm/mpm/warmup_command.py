@@ -17,7 +17,7 @@ err_console = Console(stderr=True)
 
 
 def _fail(error: Exception | str) -> typer.Exit:
-    err_console.print(f"[red]error:[/red] {message(error)}", highlight=False)
+    err_console.print(f"[red]error:[/red] {message(error)}", highlight=False, soft_wrap=True)
     return typer.Exit(2)
 
 

@@ -22,7 +22,7 @@ console = Console(stderr=True)
 
 def _fail(error: Exception | str) -> typer.Exit:
     """Print ``error`` (its text verbatim: ``[run]`` is no markup) and return the exit of status 2 to raise."""
-    console.print(f"[red]error:[/red] {message(error)}", highlight=False)
+    console.print(f"[red]error:[/red] {message(error)}", highlight=False, soft_wrap=True)
     return typer.Exit(2)
 
 
@@ -83,7 +83,7 @@ def run(
     console.print(f"[bold]{markup(sc.name)}[/bold]: {n} particles, grid {job.problem.model.grid.shape} cells, "
                   f"output {markup(out_dir, None)}", highlight=False)
     for warning in job.warnings:
-        console.print(f"[yellow]warning:[/yellow] {message(warning)}", highlight=False)
+        console.print(f"[yellow]warning:[/yellow] {message(warning)}", highlight=False, soft_wrap=True)
 
     columns = (
         TextColumn("[progress.description]{task.description}"),

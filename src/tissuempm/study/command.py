@@ -23,7 +23,7 @@ console = Console(stderr=True, soft_wrap=True)
 
 
 def _fail(message: str) -> None:
-    console.print(f"[red]error:[/red] {printable(message)}", highlight=False)
+    console.print(f"[red]error:[/red] {printable(message)}", highlight=False, soft_wrap=True)
     raise typer.Exit(2)
 
 
