@@ -183,22 +183,22 @@ def _helpers(t: WarpTypes, shape: str, NF: int) -> SimpleNamespace:
     def store(cache: wp.array(dtype=Stencil), p: int, nb: int, wx: vec3, wy: vec3, wz: vec3, dx: vec3, dy: vec3,
               dz: vec3):  # fmt: skip
         """Keep particle ``p``'s stencil (``stencil``'s record ``nb``, weights and derivatives) in ``cache``."""
-        e = Stencil()
-        e.nb = nb
-        e.wx = wx
-        e.wy = wy
-        e.wz = wz
-        e.dx = dx
-        e.dy = dy
-        e.dz = dz
-        cache[p] = e
+        rec = Stencil()  # not ``e``: Warp's hash resolves ``e.nb`` to the constant wp.e (see ``stored``)
+        rec.nb = nb
+        rec.wx = wx
+        rec.wy = wy
+        rec.wz = wz
+        rec.dx = dx
+        rec.dy = dy
+        rec.dz = dz
+        cache[p] = rec
 
     @wp.func
     def stored(cache: wp.array(dtype=Stencil), p: int, dims: wp.vec3i):
         """Particle ``p``'s stencil from ``cache`` (``store``), as ``stencil`` returns it."""
-        e = cache[p]
+        rec = cache[p]
         sx, sy = node_strides(dims)
-        return e.nb, sx * NF, sy * NF, e.wx, e.wy, e.wz, e.dx, e.dy, e.dz
+        return rec.nb, sx * NF, sy * NF, rec.wx, rec.wy, rec.wz, rec.dx, rec.dy, rec.dz
 
     @wp.func
     def field_of(field: wp.array(dtype=wp.int32), p: int):
