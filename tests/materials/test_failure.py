@@ -156,27 +156,3 @@ def test_base_must_be_weiss():
 
     with pytest.raises(ParameterError, match="must be a Weiss"):
         TwoSurfaceFailure(base=NeoHookean())
-
-
-@wp.kernel
-def _spread_kernel(C: wp.array(dtype=wp.mat33d), out: wp.array(dtype=wp.float64)):
-    i = wp.tid()
-    out[i] = failure_module.eigen_spread(C[i])
-
-
-def test_eigen_spread_closed_form_matches_eigvalsh():
-    """e_max - e_min of C = F^T F in closed form (trigonometric cubic) against LAPACK,
-    including triple and double eigenvalues, to 1e-7 relative (acos near +-1)."""
-    rng = np.random.default_rng(3)
-    F = np.eye(3) + 0.3 * rng.standard_normal((2000, 3, 3))
-    C = np.einsum("nki,nkj->nij", F, F)
-    Q, _ = np.linalg.qr(rng.standard_normal((3, 3)))
-    C[0] = np.eye(3)
-    C[1] = np.diag([2.0, 2.0, 1.0])
-    C[2] = Q @ np.diag([1.5, 0.7, 0.7]) @ Q.T
-    C[3] = np.eye(3) + 1e-9 * np.diag([1.0, 0.0, 0.0])
-    out = wp.zeros(len(C), dtype=wp.float64, device="cpu")
-    wp.launch(_spread_kernel, len(C), [wp.array(C, dtype=wp.mat33d, device="cpu"), out], device="cpu")
-    ev = np.linalg.eigvalsh(C)
-    ref = ev[:, -1] - ev[:, 0]
-    np.testing.assert_allclose(out.numpy(), ref, rtol=1e-7, atol=1e-14)

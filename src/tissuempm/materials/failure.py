@@ -54,7 +54,6 @@ Example
 
 import dataclasses
 import enum
-import math
 import typing
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal
@@ -63,6 +62,7 @@ import numpy as np
 import warp as wp
 
 from tissuempm.materials.base import Material, ParameterError, StateVar, option, parameter
+from tissuempm.materials.eigen import dev_spread, eigen_spread
 from tissuempm.materials.tangent import rate_tangent
 from tissuempm.materials.warp_interface import as_int, moduli_func, option_codes, rate_func, stress_func
 from tissuempm.materials.weiss import Weiss
@@ -115,79 +115,6 @@ INTACT = wp.constant(int(FailureMode.INTACT))
 MATRIX = wp.constant(int(FailureMode.MATRIX))
 FIBER = wp.constant(int(FailureMode.FIBER))
 BOTH = wp.constant(int(FailureMode.BOTH))
-
-
-TWO_SQRT3 = wp.constant(wp.float64(2.0 * math.sqrt(3.0)))
-"""2 sqrt(3) in float64 (an expression such as ``wp.float64(2.0 * math.sqrt(3.0))`` inside a Warp function
-is evaluated in float32 by Warp's code generator: 1.5e-8 relative error in the shear measure)."""
-PI_3 = wp.constant(wp.float64(math.pi / 3.0))
-"""pi / 3 in float64."""
-
-
-@wp.func
-def eigen_angle(C: wp.mat33d):
-    """``(q, p, phi)`` of the trigonometric solution of a symmetric 3x3 matrix's characteristic cubic.
-
-    Smith (1961): with q = tr C / 3, B = C - q I, p = sqrt(tr(B^2) / 6) and
-    r = det(B / p) / 2, the eigenvalues are q + 2p cos(phi + 2 pi k / 3), k = 0, 1, 2,
-    phi = acos(r) / 3 in [0, pi/3]; k = 0 is the largest. p = phi = 0 for C = q I.
-    Shared by :func:`eigen_spread` and :func:`eigen_max`.
-    """
-    q = wp.trace(C) / wp.float64(3.0)
-    B = C - q * wp.identity(n=3, dtype=wp.float64)
-    p2 = (wp.ddot(B, B)) / wp.float64(6.0)
-    if p2 <= wp.float64(0.0):
-        return q, wp.float64(0.0), wp.float64(0.0)
-    p, phi = dev_angle(B, p2)
-    return q, p, phi
-
-
-@wp.func
-def dev_angle(B: wp.mat33d, p2: wp.float64):
-    """``(p, phi)`` of :func:`eigen_angle` for the deviator ``B`` of a symmetric matrix, given
-    ``p2 = tr(B^2) / 6 > 0``; det(B / p) is formed as det(B) / p^3 (one division, not nine)."""
-    p = wp.sqrt(p2)
-    r = wp.clamp(wp.determinant(B) / (p2 * p) * wp.float64(0.5), wp.float64(-1.0), wp.float64(1.0))
-    return p, wp.acos(r) / wp.float64(3.0)
-
-
-@wp.func
-def dev_spread(B: wp.mat33d, p2: wp.float64):
-    """Largest minus smallest eigenvalue of a symmetric matrix from its deviator ``B`` and
-    ``p2 = tr(B^2) / 6`` (:func:`eigen_spread` without forming the deviator again)."""
-    if p2 <= wp.float64(0.0):
-        return wp.float64(0.0)
-    p, phi = dev_angle(B, p2)
-    return TWO_SQRT3 * p * wp.sin(phi + PI_3)
-
-
-@wp.func
-def eigen_spread(C: wp.mat33d):
-    """Largest minus smallest eigenvalue of a symmetric 3x3 matrix, in closed form.
-
-    Trigonometric solution of the characteristic cubic (:func:`eigen_angle`)::
-
-        e_max - e_min = 2p (cos phi - cos(phi + 2 pi / 3)) = 2 sqrt(3) p sin(phi + pi / 3)
-
-    p is a sum of squares (no cancellation); near a double eigenvalue the
-    error of acos is O(sqrt(eps)) in phi but enters the spread with the factor
-    p cos(phi + pi/3): at most ~1e-7 of the spread in float64 (tests/materials/test_failure.py). Cheaper
-    than ``wp.eig3`` (Jacobi sweeps), which only the eigenvectors would need.
-    """
-    q, p, phi = eigen_angle(C)
-    return TWO_SQRT3 * p * wp.sin(phi + PI_3)
-
-
-@wp.func
-def eigen_max(C: wp.mat33d):
-    """Largest eigenvalue q + 2p cos(phi) of a symmetric 3x3 matrix (:func:`eigen_angle`).
-
-    Near a double largest eigenvalue (r -> -1, phi -> pi/3) the O(sqrt(eps)) error of acos enters
-    with the factor 2p sin(phi): ~1e-8 p in float64, far below any failure limit's resolution;
-    near a double smallest one (phi -> 0) it enters to second order.
-    """
-    q, p, phi = eigen_angle(C)
-    return q + wp.float64(2.0) * p * wp.cos(phi)
 
 
 def principal_green_strains(F: np.ndarray) -> np.ndarray:

@@ -27,7 +27,7 @@ C = F^T F) and sigma the base's Cauchy stress:
     m = sigma1, the maximum principal Cauchy stress of the base [Pa] (tension positive).
 
 The eigenvalue is the closed-form trigonometric solution of
-:func:`tissuempm.materials.failure.eigen_max` in float64 (as the two-surface law's shear measure).
+:func:`tissuempm.materials.eigen.eigen_max` in float64 (as the two-surface law's shear measure).
 
 Failure and history
 -------------------
@@ -114,7 +114,8 @@ from tissuempm.materials.base import (
     parameter,
     specialised,
 )
-from tissuempm.materials.failure import NEVER, FailureMode, eigen_max, principal_green_strains
+from tissuempm.materials.eigen import eigen_max
+from tissuempm.materials.failure import NEVER, FailureMode, principal_green_strains
 from tissuempm.materials.kinematics import mat66
 from tissuempm.materials.tangent import numeric_tangent
 from tissuempm.materials.warp_interface import as_int, moduli_func, option_codes, stress_func

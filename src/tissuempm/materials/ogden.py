@@ -18,7 +18,10 @@ the Cauchy stress is::
 
 with n_a the eigenvectors of Bb. Equal stretches give equal beta_a, so any
 orthonormal basis of a repeated eigenspace gives the same tensor: the form is
-well defined for coincident stretches (e.g. F = I, uniaxial, equibiaxial).
+well defined for coincident stretches (e.g. F = I, uniaxial, equibiaxial). The Warp stress forms
+sum_a beta_a n_a (x) n_a as the polynomial in Bb that interpolates beta at its eigenvalues
+(:func:`tissuempm.materials.eigen.isotropic_function`: closed-form eigenvalues, no eigenvectors),
+which needs no special case for them either.
 
 Incompressible homogeneous closed forms (nominal stress P = (beta_1 - beta_3)/lam
 along stretch lam, direction 3 traction free)::
@@ -47,6 +50,7 @@ import warp as wp
 
 from tissuempm.materials.base import Fit, ParameterError, copy_state, parameter
 from tissuempm.materials.cards import abaqus_D1, data_lines, fixed_card, poisson_ratio
+from tissuempm.materials.eigen import isotropic_function, near_triple, power_term, sym_eigenvalues
 from tissuempm.materials.invariant_hyperelastic import UncoupledHyperelastic, shear_stretches
 from tissuempm.materials.kinematics import kinematics
 from tissuempm.materials.warp_interface import stress_func
@@ -168,24 +172,22 @@ class Ogden(UncoupledHyperelastic):
 
         @stress_func(t)
         def stress(F, L, a0, prm, s_in, s_out, p, dt):
-            # principal isochoric stretches in float64 (eig3 of Bb)
+            # sum_a beta_a n_a (x) n_a over the eigenpairs (lam_a^2, n_a) of Bb, in float64, as a polynomial in
+            # Bb (tissuempm.materials.eigen: closed-form eigenvalues, no eigenvectors; 4 x faster than eig3)
             Fd = wp.mat33d(F)
             Jd = wp.determinant(Fd)
             Bb = wp.pow(Jd, d(-2.0) / d(3.0)) * (Fd * wp.transpose(Fd))
-            Q = wp.mat33d()
-            lb2 = wp.vec3d()
-            wp.eig3(Bb, Q, lb2)
-            n = P.mu_count(prm)
-            beta = wp.vec3d(d(0.0), d(0.0), d(0.0))
-            for i in range(n):
-                m = d(P.mu(prm, i))
+            x1, x2, x3, q = sym_eigenvalues(Bb)
+            near = near_triple(x1, x3, q)
+            values = wp.vec3d()
+            differences = wp.vec3d()
+            for i in range(P.mu_count(prm)):
                 a = d(P.alpha(prm, i))
-                c = d(2.0) * m / a
-                h = d(0.5) * a
-                beta += c * wp.vec3d(wp.pow(lb2[0], h), wp.pow(lb2[1], h), wp.pow(lb2[2], h))
-            mean = (beta[0] + beta[1] + beta[2]) / d(3.0)
-            dev_beta = beta - wp.vec3d(mean, mean, mean)
-            tau = Q * wp.diag(dev_beta) * wp.transpose(Q)
+                v, dd = power_term(x1, x2, x3, q, near, d(2.0) * d(P.mu(prm, i)) / a, d(0.5) * a)
+                values += v
+                differences += dd
+            G = isotropic_function(Bb, x1, x2, x3, near, values, differences)
+            tau = G - (wp.trace(G) / d(3.0)) * wp.identity(n=3, dtype=d)
             J = wp.determinant(F)
             U1 = k.volumetric_dUdJ(J, P.volumetric(prm), P.K(prm))
             copy(s_in, s_out, p, 0, s_in.shape[1])

@@ -1119,7 +1119,8 @@ def material_kernels(cls: type, t: WarpTypes, bulk_viscosity: bool = False, fbar
 
     @kernel
     def stress(mat_id: int, prm: wp.array(dtype=s), P: A.Particles, G: A.Grid, S: A.Step, V: cells.Cells,
-               s_in: wp.array2d(dtype=s), s_out: wp.array2d(dtype=s), begin: int, c: int):  # fmt: skip
+               s_in: wp.array2d(dtype=s), s_out: wp.array2d(dtype=s), order: wp.array(dtype=wp.int32), begin: int,
+               c: int):  # fmt: skip
         """sigma_p = law(F, L, a0, history) (``P.stress``; history rows ``s_in`` -> ``s_out``); internal
         work ``P.work`` += V (sigma_old + sigma_new)/2 : D dt of the law's stress; the signal speed of the
         new state into ``P.speed`` (the next step's CFL bound when v is already the new one).
@@ -1134,8 +1135,13 @@ def material_kernels(cls: type, t: WarpTypes, bulk_viscosity: bool = False, fbar
         ``S.c_lin``, ``S.c_quad``), sigma = sigma_law - q I; q is kept in ``P.bulk_q``, the energy it
         dissipates, V (q_old + q)/2 (-tr D) dt, goes to ``P.bulk_work`` (not to ``work``), and the signal
         speed becomes Q + sqrt(Q^2 + c^2) + |v| with Q = C_L c + C_Q h |tr D| (LS-DYNA's time-step bound
-        with bulk viscosity)."""
+        with bulk viscosity).
+
+        Particle: ``begin + tid`` in storage order, or ``order[begin + tid]`` where ``order`` is not empty
+        (the law's own particles, :mod:`tissuempm.mpm.law_order`); others than the law's are skipped."""
         p = begin + wp.tid()
+        if order.shape[0] > 0:
+            p = order[p]
         if P.material[p] != mat_id:
             return
         dt = S.dt

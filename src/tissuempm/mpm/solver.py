@@ -49,6 +49,7 @@ from tissuempm.mpm.contact import contact_kernel
 from tissuempm.mpm.errors import InstabilityError
 from tissuempm.mpm.free_bodies import FreeBodies
 from tissuempm.mpm.launch import Launcher
+from tissuempm.mpm.law_order import law_order
 from tissuempm.mpm.model import Model, ParticleData, RigidMaterial
 from tissuempm.mpm.reference_grid import ReferenceGrid, check_no_reset
 from tissuempm.mpm.removal import KEEP, OUTFLOW, UNSTABLE, classify_kernel, erosion_slots, removed_totals
@@ -198,6 +199,7 @@ class ExplicitSolver(Integrator):
                 mk = K.material_kernels(type(m), self.t, cfg.bulk_viscosity, fbar)  # type: ignore[arg-type]  # hashable
                 prm = self._parameters(m)
                 self.laws.append((i, m, mk, prm))
+        self._no_order = wp.empty(0, dtype=wp.int32, device=self.device)  # the stress kernel's order, unused
         self.mat_rigid: wp.array = wp.array(
             np.array([model.is_rigid(i) for i in range(n_mat)], dtype=np.int32), dtype=wp.int32, device=self.device
         )
@@ -402,6 +404,7 @@ class ExplicitSolver(Integrator):
         chunks, chunk buffers, per-chunk slots, the constraint flag, the empty-node mass threshold
         (from ``material``, ``fixed`` and ``mass``, storage order) and the free bodies' masses."""
         st.chunks = self._chunks(st.n)
+        st.law_order = None  # built for these chunks at the next stress pass
         self._ensure_buffers(len(st.chunks))
         rigid = np.array([self.model.is_rigid(i) for i in range(len(self.model.materials))])
         deform = ~rigid[np.asarray(material)]
@@ -795,10 +798,22 @@ class ExplicitSolver(Integrator):
         S.dt = self.t.scalar(dt)
         args = [st.kernel_args, self.grid_args, S, self._cells]
 
+        if len(self.laws) > 1 and st.law_order is None:
+            order, starts = law_order(st.material.numpy(), st.chunks, len(self.model.materials))
+            st.law_order = (wp.array(order, dtype=wp.int32, device=self.device), starts)
+        none = self._no_order
+
         def task(c: int, b: int, e: int) -> Callable[[], None]:
             def run() -> None:
                 for i, _, mk, prm in self.laws:
-                    self._launch(mk.stress, e - b, [i, prm, *args, st.history, st.history_next, b, c * K.SLOT], c)
+                    hist = [st.history, st.history_next]
+                    if st.law_order is None:  # one law: the chunk in storage order
+                        self._launch(mk.stress, e - b, [i, prm, *args, *hist, none, b, c * K.SLOT], c)
+                        continue
+                    order, starts = st.law_order
+                    first, end = int(starts[c][i]), int(starts[c][i + 1])
+                    if end > first:  # the law's own particles of the chunk (mpm.law_order)
+                        self._launch(mk.stress, end - first, [i, prm, *args, *hist, order, first, c * K.SLOT], c)
                 self._rigid_speed(st, c, b, e)
 
             return run

@@ -196,6 +196,9 @@ class State:
     drop: wp.array = dataclasses.field(init=False)
     code: wp.array = dataclasses.field(init=False)
     kernel_args: Any = dataclasses.field(default=None, init=False)
+    law_order: Any = dataclasses.field(default=None, init=False)
+    """The stress pass's order (:mod:`tissuempm.mpm.law_order`): ``(order array, per-chunk offsets)``, or
+    None until the solver builds it; reset whenever the particles move in storage."""
 
     @classmethod
     def allocate(
@@ -381,6 +384,7 @@ class State:
     def _gather(self, perm: np.ndarray, in_place: bool) -> None:
         """Storage position k takes the particle now at ``perm[k]`` (Warp gathers): copied back into
         the arrays (``in_place``, same count) or into new arrays of ``len(perm)``."""
+        self.law_order = None  # the particles move in storage
         dev = self.x.device
         m = len(perm)
         p: wp.array = wp.array(np.asarray(perm, dtype=np.int64), dtype=wp.int64, device=dev)

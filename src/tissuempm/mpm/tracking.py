@@ -12,10 +12,12 @@ for every deformable particle p, the running maxima
 the maximum principal Green-Lagrange strain (E = (C - I)/2, C = F^T F; the measure of Kleiven 2007
 and of SIMon, Takhounts et al. 2008) and the von Mises stress of the Cauchy stress deviator
 s = sigma - tr(sigma)/3 I, with the time at which each was reached. Both start at 0 (the undeformed,
-unstressed reference state is part of the run). The largest eigenvalue of C comes from Warp's
-float64 ``eig3`` (its float32 routines are inaccurate). The maximum principal logarithmic
-(Hencky) strain is the monotone image ln(lambda_max) = ln(1 + 2 E_1)/2 of the same eigenvalue, so
-its peak is that of the Green strain mapped (:func:`log_strain`) and is not tracked separately.
+unstressed reference state is part of the run). The largest eigenvalue of C is the float64 closed
+form :func:`tissuempm.materials.eigen.eigen_max` (60 ns a particle against 630 ns for Warp's ``eig3``,
+whose float32 routines are also inaccurate; within 3e-8 sqrt(spread |C|) near a double eigenvalue).
+The maximum principal logarithmic (Hencky) strain is the monotone image ln(lambda_max) =
+ln(1 + 2 E_1)/2 of the same eigenvalue, so its peak is that of the Green strain mapped
+(:func:`log_strain`) and is not tracked separately.
 
 The kernel runs per particle chunk in the solver's parallel section, after the chunk's stress
 update (its own particles only, so no barrier is needed). The peaks are optional state fields
@@ -30,6 +32,7 @@ from typing import Any
 import numpy as np
 import warp as wp
 
+from tissuempm.materials.eigen import eigen_max
 from tissuempm.precision import WarpTypes, kernel
 
 TRACKED: dict[str, tuple[str, str]] = {
@@ -96,11 +99,7 @@ def peak_kernel(t: WarpTypes) -> Any:
             return
         if K.strain != 0:
             Fd = wp.mat33d(P.F[p])
-            C = wp.transpose(Fd) * Fd
-            Q = wp.mat33d()
-            lam = wp.vec3d()
-            wp.eig3(C, Q, lam)
-            e1 = s(d(0.5) * (wp.max(wp.max(lam[0], lam[1]), lam[2]) - d(1.0)))
+            e1 = s(d(0.5) * (eigen_max(wp.transpose(Fd) * Fd) - d(1.0)))
             if e1 > K.mps[p]:
                 K.mps[p] = e1
                 K.mps_t[p] = time
