@@ -28,8 +28,6 @@ for a spread p) moves G by |g'| times that: 1e-7 of the deviatoric part for a sp
 strain), more of a deviator that is itself tiny, 1e-12 |g'| |B| at most (tests/materials/test_eigen.py).
 """
 
-from __future__ import annotations
-
 import math
 
 import warp as wp
