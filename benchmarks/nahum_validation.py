@@ -4,12 +4,13 @@
 Reads the run's ``history.csv`` (the impactor's reaction, or the applied surface force, and the four
 probes), ``brain/brain.json`` (written by ``tissuempm brain RUN``) when present, and the published numbers of
 ``examples/data/nahum1977_exp37.csv``; prints a Markdown table (published vs measured), writes
-``RUN/nahum_validation.json`` and the figure ``docs/figures/nahum1977_exp37.png`` (or ``--figure``).
+``RUN/nahum_validation.json`` and the figure ``RUN/nahum_validation.png`` (or ``--figure``, e.g. the
+documentation's ``docs/figures/nahum1977_exp37.png``: the default leaves the repository's files alone).
 
     tissuempm head build --resolution "2 mm" --out examples/validation/head.nii.gz
     tissuempm run examples/validation/nahum1977.toml --out runs/nahum1977
     tissuempm brain runs/nahum1977
-    python benchmarks/nahum_validation.py runs/nahum1977
+    python benchmarks/nahum_validation.py runs/nahum1977 --figure docs/figures/nahum1977_exp37.png
     python benchmarks/nahum_validation.py runs/nahum1977_force --figure docs/figures/nahum1977_exp37_force.png
 
 Definitions (docs/validation.md):
@@ -42,7 +43,6 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / "examples/data/nahum1977_exp37.csv"
-FIGURE = ROOT / "docs/figures/nahum1977_exp37.png"
 PROBES = ("frontal", "parietal", "occipital", "posterior_fossa")
 PUBLISHED_KEY = {p: f"{p}_peak_pressure" for p in PROBES}
 
@@ -223,13 +223,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("run", type=Path, help="run folder of examples/validation/nahum1977.toml or nahum1977_force.toml")
     ap.add_argument("--cutoff", type=float, default=1000.0, help="low-pass cut-off [Hz] (default 1000)")
-    ap.add_argument("--figure", type=Path, default=FIGURE, help=f"figure path (default {FIGURE.relative_to(ROOT)})")
+    ap.add_argument("--figure", type=Path, default=None, help="figure path (default RUN/nahum_validation.png)")
     args = ap.parse_args()
     res = analyse(args.run, args.cutoff)
     (args.run / "nahum_validation.json").write_text(json.dumps(res, indent=2))
-    figure(args.run, res, args.figure, args.cutoff)
+    path = args.figure if args.figure is not None else args.run / "nahum_validation.png"
+    figure(args.run, res, path, args.cutoff)
     print(table(res))
-    print(f"\nwrote {args.run / 'nahum_validation.json'}, {args.figure}")
+    print(f"\nwrote {args.run / 'nahum_validation.json'}, {path}")
 
 
 if __name__ == "__main__":
