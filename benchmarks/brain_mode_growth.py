@@ -10,8 +10,9 @@ shows percentiles that grow from frame to frame after the load has peaked.
 
     python benchmarks/brain_mode_growth.py RUN [RUN ...] [--json records.jsonl --tag TEXT]
 
-Brain particles are those of the bodies whose name holds "matter" or "stem" (the head's label table).
-Reads ``RUN/scenario.json``, ``RUN/history.csv`` and ``RUN/frames/particles_NNNNN.vtu`` (fields ``body``,
+Brain particles are those of the run's brain materials, as ``tissuempm brain`` takes them
+(:func:`tissuempm.analysis.brain.brain_materials`: ``[head] brain``, else every deformable material no skull body
+uses). Reads ``RUN/scenario.json``, ``RUN/history.csv`` and ``RUN/frames/particles_NNNNN.vtu`` (fields ``material``,
 ``pressure``, ``velocity``, ``mass``: the default frame fields).
 """
 
@@ -22,17 +23,19 @@ from pathlib import Path
 import meshio
 import numpy as np
 
+from tissuempm.analysis.brain import brain_materials
+
 
 def growth(run: Path) -> dict:
     """Per-frame pressure and relative-speed percentiles of the brain, and the skull's spin."""
     sc = json.loads((run / "scenario.json").read_text())
-    names = [b["name"] for b in sc["body"]]
-    brain_ids = [i for i, n in enumerate(names) if "matter" in n or "stem" in n]
+    materials = list(sc["materials"])
+    brain_ids = [materials.index(m) for m in brain_materials(sc, None)]
     frames = []
     for path in sorted((run / "frames").glob("particles_*.vtu")):
         mesh = meshio.read(path)
         pd = {k: np.asarray(v) for k, v in mesh.point_data.items()}
-        brain = np.isin(pd["body"].astype(int), brain_ids)
+        brain = np.isin(pd["material"].astype(int), brain_ids)
         v, m = pd["velocity"], pd["mass"]
         rel = np.linalg.norm(v - (v * m[:, None]).sum(0) / m.sum(), axis=1)[brain]
         p = pd["pressure"][brain]

@@ -4,13 +4,13 @@ affine transfer, measured"): from one frame of a run folder of ``examples/valida
 For each ``[[probe]]`` of the run's scenario: the particles it holds (seeded within its radius of its point,
 in its bodies: the run's own selection, by reference position ``x0``), the range of their pressures, and
 the volume-weighted mean pressure over spheres of other radii about the same point. For the whole brain
-(bodies whose name holds "matter", and the brain stem): the rms of the particle pressures about their
-cell's mean (cells of the run's grid at the particles' current positions) and the spread of the cell
-means (cells holding at least four brain particles).
+(the run's brain materials, as ``tissuempm brain`` takes them: ``[head] brain``): the rms of the particle
+pressures about their cell's mean (cells of the run's grid at the particles' current positions) and the
+spread of the cell means (cells holding at least four brain particles).
 
     python benchmarks/nahum_probe_spread.py RUN [--frame 3] [--radii 8 12 16 20]
 
-Reads ``RUN/scenario.json`` and ``RUN/frames/particles_NNNNN.vtu`` (fields ``x0``, ``body``, ``J``, ``size``,
+Reads ``RUN/scenario.json`` and ``RUN/frames/particles_NNNNN.vtu`` (fields ``x0``, ``body``, ``material``, ``J``, ``size``,
 ``pressure``: the default frame fields).
 """
 
@@ -20,6 +20,8 @@ from pathlib import Path
 
 import meshio
 import numpy as np
+
+from tissuempm.analysis.brain import brain_materials
 
 
 def spread(run: Path, frame: int, radii: list[float]) -> dict:
@@ -43,7 +45,8 @@ def spread(run: Path, frame: int, radii: list[float]) -> dict:
                                   "pressure_kPa": float(np.sum(w[sel] * p[sel]) / np.sum(w[sel]) / 1e3)}
         out["probes"][probe["name"]] = {"particles": int(own.sum()), "min_kPa": float(p[own].min() / 1e3),
                                         "max_kPa": float(p[own].max() / 1e3), "means": means}  # fmt: skip
-    brain = np.array(["matter" in names[b] or names[b] == "brain_stem" for b in body])
+    materials = list(sc["materials"])
+    brain = np.isin(pd["material"].astype(int), [materials.index(m) for m in brain_materials(sc, None)])
     h = float(sc["grid"]["cell_size"])
     key = np.floor((mesh.points[brain] - np.array(sc["grid"]["lower"], float)) / h).astype(np.int64)
     _, cell = np.unique(key, axis=0, return_inverse=True)

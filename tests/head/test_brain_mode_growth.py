@@ -1,5 +1,5 @@
 """benchmarks/brain_mode_growth.py (docs/validation.md, "A mode that grows in the brain") on a run folder
-made here with known fields: the percentiles take the brain bodies only, the relative speed is measured
+made here with known fields: the percentiles take the run's brain materials (``[head] brain``) only, the relative speed is measured
 from the whole model's mass-weighted mean velocity, and the skull's spin is read from the history."""
 
 import csv
@@ -17,21 +17,24 @@ spec.loader.exec_module(bmg)
 
 
 def _run(folder: Path) -> None:
-    bodies = ["skull_cortical", "cerebrum_grey_matter", "brain_stem", "csf"]
-    (folder / "scenario.json").write_text(json.dumps({"body": [{"name": n} for n in bodies], "solver": {"flip": 0.99}}))
+    materials = ["skull_cortical", "cerebrum_grey_matter", "brain_stem_pons", "csf"]
+    scenario = {"materials": {m: {"kind": "viscoelastic"} for m in materials}, "solver": {"flip": 0.99},
+                "body": [{"name": m, "material": m} for m in materials],
+                "head": {"skull": ["skull_cortical"], "brain": ["cerebrum_grey_matter", "brain_stem_pons"]}}
+    (folder / "scenario.json").write_text(json.dumps(scenario))
     n = 400
-    body = np.repeat(np.arange(4), n // 4)
-    pressure = np.where(body == 0, 1e9, 0.0)  # the skull's huge pressure must not enter the brain's percentiles
-    brain = (body == 1) | (body == 2)
+    material = np.repeat(np.arange(4), n // 4)
+    pressure = np.where(material == 0, 1e9, 0.0)  # the skull's huge pressure must not enter the brain's percentiles
+    brain = (material == 1) | (material == 2)
     pressure[brain] = np.linspace(-1e5, 1e5, brain.sum())
-    mass = np.where(body == 0, 3.0, 1.0)
+    mass = np.where(material == 0, 3.0, 1.0)
     velocity = np.zeros((n, 3))
     velocity[:, 1] = 2.0  # everything moves at 2 m/s along y: relative speed 0 ...
     velocity[np.flatnonzero(brain)[0], 1] = 2.0 + 5.0  # ... but one brain particle, 5 m/s faster
     (folder / "frames").mkdir()
     meshio.write(folder / "frames" / "particles_00001.vtu",
                  meshio.Mesh(np.zeros((n, 3)), [("vertex", np.arange(n)[:, None])],
-                             point_data={"body": body.astype(float), "pressure": pressure, "mass": mass,
+                             point_data={"material": material.astype(float), "pressure": pressure, "mass": mass,
                                          "velocity": velocity}))
     with (folder / "history.csv").open("w", newline="") as fh:
         w = csv.writer(fh)
