@@ -8,6 +8,15 @@ A stable run's pressure percentiles follow the load (they fall back after it) an
 near the head's rigid rotation (omega times the head's radius, about 0.1 m per rad/s); a mode that grows
 shows percentiles that grow from frame to frame after the load has peaked.
 
+Each frame also gives the brain's **grid-invisible kinetic energy** on the run's grid
+(:func:`tissuempm.mpm.grid_energy.invisible_energy`: the particles' kinetic energy less that of the nodal
+momenta they project to, the energy the grid does not see and FLIP keeps) beside the brain's kinetic energy,
+and where the pressure scatter lives (:func:`pressure_scales`): **within cells** (the rms of the brain
+particles' pressures about their cell's mean, in the cells of the frame's positions: F-bar gives all particles
+of a cell the same volume change, so what differs within a cell is what each particle brought from the cells it
+crossed) and **between cells** (the rms of each cell's mean about the mean of its 3 x 3 x 3 block, over the cells
+whose block is all brain).
+
     python benchmarks/brain_mode_growth.py RUN [RUN ...] [--json records.jsonl --tag TEXT]
 
 Brain particles are those of the run's brain materials, as ``tissuempm brain`` takes them
@@ -22,8 +31,28 @@ from pathlib import Path
 
 import meshio
 import numpy as np
+from scipy.ndimage import uniform_filter
 
 from tissuempm.analysis.brain import brain_materials
+from tissuempm.mpm.grid_energy import invisible_energy
+
+
+def pressure_scales(x: np.ndarray, p: np.ndarray, lower: np.ndarray, h: float) -> tuple[float, float]:
+    """(within-cell, between-cell) rms [Pa] of pressures ``p`` of particles at ``x`` on the grid of cell size
+    ``h`` with a node at ``lower`` (module docstring); NaN between cells when no cell has a full block."""
+    c = np.floor((x - lower) / h).astype(np.int64)
+    c -= c.min(axis=0)
+    dims = tuple(c.max(axis=0) + 1)
+    flat = np.ravel_multi_index(tuple(c.T), dims)
+    count = np.bincount(flat, minlength=int(np.prod(dims)))
+    mean = np.bincount(flat, p, int(np.prod(dims))) / np.maximum(count, 1)
+    within = float(np.sqrt(np.mean((p - mean[flat]) ** 2)))
+    filled = (count > 0).reshape(dims).astype(float)
+    share = uniform_filter(filled, 3, mode="constant")
+    block = uniform_filter(mean.reshape(dims), 3, mode="constant") / np.maximum(share, 1e-12)
+    inner = (filled > 0) & (share > 1.0 - 1e-9)
+    between = float(np.sqrt(np.mean((mean.reshape(dims) - block)[inner] ** 2))) if inner.any() else float("nan")
+    return within, between
 
 
 def growth(run: Path) -> dict:
@@ -31,6 +60,7 @@ def growth(run: Path) -> dict:
     sc = json.loads((run / "scenario.json").read_text())
     materials = list(sc["materials"])
     brain_ids = [materials.index(m) for m in brain_materials(sc, None)]
+    lower, h = np.asarray(sc["grid"]["lower"], float), float(sc["grid"]["cell_size"])
     frames = []
     for path in sorted((run / "frames").glob("particles_*.vtu")):
         mesh = meshio.read(path)
@@ -39,10 +69,15 @@ def growth(run: Path) -> dict:
         v, m = pd["velocity"], pd["mass"]
         rel = np.linalg.norm(v - (v * m[:, None]).sum(0) / m.sum(), axis=1)[brain]
         p = pd["pressure"][brain]
+        x = np.asarray(mesh.points, float)[brain]
+        e_inv = invisible_energy(x, v[brain], m[brain], lower, h)
+        within, between = pressure_scales(x, p, lower, h)
         frames.append({
             "frame": path.stem,
             "pressure_p1": float(np.percentile(p, 1)), "pressure_p99": float(np.percentile(p, 99)),
             "relative_speed_p99": float(np.percentile(rel, 99)), "relative_speed_max": float(rel.max()),
+            "invisible_energy": e_inv, "kinetic_energy": float(0.5 * (m[brain] * (v[brain] ** 2).sum(axis=1)).sum()),
+            "pressure_within_cells": within, "pressure_between_cells": between,
         })
     hist = np.genfromtxt(run / "history.csv", delimiter=",", names=True)
     spin = []
@@ -65,7 +100,9 @@ def main() -> None:
         for f in res["frames"]:
             p1, p99 = f["pressure_p1"] / 1e3, f["pressure_p99"] / 1e3
             print(f"  {f['frame']}: brain pressure p1 / p99 {p1:+.0f} / {p99:+.0f} kPa; speed relative to the mean"
-                  f" p99 {f['relative_speed_p99']:.2f}, max {f['relative_speed_max']:.2f} m/s")
+                  f" p99 {f['relative_speed_p99']:.2f}, max {f['relative_speed_max']:.2f} m/s; grid-invisible kinetic"
+                  f" energy {f['invisible_energy'] * 1e3:.3g} mJ of {f['kinetic_energy'] * 1e3:.3g}; pressure rms within"
+                  f" cells {f['pressure_within_cells'] / 1e3:.0f}, between {f['pressure_between_cells'] / 1e3:.0f} kPa")
         spins = ", ".join(f"{s['time'] * 1e3:.0f} ms {s['omega'][0]:+.1f}" for s in res["spin"])
         print(f"  skull omega_x [rad/s] at {spins}")
         if args.json:

@@ -330,3 +330,20 @@ def test_frames_hold_the_peaks_and_stand_in_for_the_checkpoint(tmp_path: Path) -
     assert from_frame.peak_mps == pytest.approx(full.peak_mps, rel=1e-6)
     assert from_frame.csdm == pytest.approx(full.csdm)
     assert from_frame.head is None  # no head_* columns without [head]
+
+
+def test_brain_pressure_percentiles_in_the_history_are_those_of_the_brain_particles(tmp_path: Path) -> None:
+    """``brain_pressure_p1/p99`` of the last history row (the run's end) are the 1st and 99th percentiles of
+    -tr(sigma)/3 over the brain particles of the final checkpoint (the default brain: the material the skull
+    body does not use), and the brain struck the floor: its p99 is a compression."""
+    out = tmp_path / "run"
+    assert Runner(scenario(FALL), out).run().status == "completed"
+    from tissuempm.analysis.brain import read_history
+    from tissuempm.io import read_checkpoint
+
+    hist = read_history(out / "history.csv")
+    a, _ = read_checkpoint(out / "checkpoint.h5")
+    p = -np.trace(a["stress"][a["material"] == 0], axis1=1, axis2=2) / 3.0
+    assert hist["brain_pressure_p1"][-1] == pytest.approx(np.percentile(p, 1), rel=1e-12, abs=1e-9)
+    assert hist["brain_pressure_p99"][-1] == pytest.approx(np.percentile(p, 99), rel=1e-12)
+    assert hist["brain_pressure_p99"].max() > 0

@@ -19,6 +19,7 @@ spec.loader.exec_module(bmg)
 def _run(folder: Path) -> None:
     materials = ["skull_cortical", "cerebrum_grey_matter", "brain_stem_pons", "csf"]
     scenario = {"materials": {m: {"kind": "viscoelastic"} for m in materials}, "solver": {"flip": 0.99},
+                "grid": {"lower": [0.0, 0.0, 0.0], "cell_size": 0.01},
                 "body": [{"name": m, "material": m} for m in materials],
                 "head": {"skull": ["skull_cortical"], "brain": ["cerebrum_grey_matter", "brain_stem_pons"]}}
     (folder / "scenario.json").write_text(json.dumps(scenario))
@@ -55,3 +56,18 @@ def test_percentiles_of_the_brain_speeds_against_the_mass_weighted_mean_and_the_
     assert np.isclose(frame["relative_speed_p99"], np.percentile(np.r_[7.0 - mean, np.full(199, mean - 2.0)], 99))
     assert [round(s["time"] * 1e3, 6) for s in res["spin"]] == [1.0, 2.0]
     assert np.allclose([s["omega"][0] for s in res["spin"]], [-10.0, -20.0])
+
+
+
+def test_pressure_scales_split_the_scatter_within_and_between_cells():
+    """Within cells: the rms of the pressures about their cell's mean; between cells: the rms of a cell's mean
+    about its 3 x 3 x 3 block's mean, over the cells whose block is full (here the centre of a 3 x 3 x 3 lattice
+    of 1 cm cells, two particles each: cell means 0, the centre's 27, its block's mean 1, so 26)."""
+    centres = (np.array(list(np.ndindex(3, 3, 3)), float) + 0.5) * 0.01
+    x = np.repeat(centres, 2, axis=0) + np.tile([[-0.002, 0, 0], [0.002, 0, 0]], (27, 1))
+    p = np.tile([-1.0, 1.0], 27)  # +-1 about each cell's mean of 0 ...
+    p[26:28] += 27.0  # ... but the centre cell's (index 13), 27
+    within, between = bmg.pressure_scales(x, p, np.zeros(3), 0.01)
+    assert np.isclose(within, 1.0) and np.isclose(between, 26.0)
+    within, between = bmg.pressure_scales(x[:4], p[:4], np.zeros(3), 0.01)
+    assert np.isclose(within, 1.0) and np.isnan(between)

@@ -178,3 +178,24 @@ def test_history_truncate_drops_a_half_written_row(tmp_path, cut):
     rows = (tmp_path / "h.csv").read_text().splitlines()
     assert len(rows) == 4 and rows[-1] == last  # header and the 3 complete rows
     assert log.read()["step"].tolist() == [0, 1, 2]
+
+
+def test_history_truncate_rewrites_an_older_header_by_column_name(tmp_path):
+    """A restart of a run whose history.csv an older version wrote (other columns): the rows kept are rewritten in
+    today's columns, values matched by name, NaN where the old file has none, a column that is gone dropped."""
+    from tissuempm.io import HistoryLog
+    from tissuempm.io.history import GridEnergyColumns
+
+    old = HistoryLog(tmp_path / "h.csv", {})
+    for step in range(3):
+        old.append({**_state(), "step": step, "time": 1e-3 * step})
+    text = (tmp_path / "h.csv").read_text().splitlines()
+    text = [f"{line},{k}" for k, line in enumerate(text)]  # a column that is gone ...
+    text[0] = text[0].rsplit(",", 1)[0] + ",retired"
+    (tmp_path / "h.csv").write_text("\n".join(text) + "\n")
+    new = HistoryLog(tmp_path / "h.csv", {}, extra=(GridEnergyColumns(np.zeros(0), np.zeros(3), 1.0),))
+    new.truncate(1)
+    rows = new.read()
+    assert list(rows) == new.columns and "retired" not in rows  # ... and the grid columns, new
+    assert rows["step"].tolist() == [0, 1] and rows["time"].tolist() == [0.0, 1e-3]
+    assert np.isnan(rows["grid_invisible_energy"]).all() and np.isnan(rows["grid_invisible_share"]).all()

@@ -11,7 +11,12 @@ from test_runner import BLOCK
 from tissuempm.io import HistoryLog, VTUSeries, read_checkpoint, read_pvd
 from tissuempm.io.background import OutputError
 from tissuempm.io.frames import DEFAULT_FRAME_FIELDS, state_names
-from tissuempm.scenarios.runner import CHECKPOINT, Runner
+from tissuempm.io.history import GridEnergyColumns
+from tissuempm.scenarios.runner import (
+    CHECKPOINT,
+    Runner,
+    grid_invisible_share,
+)
 
 
 @pytest.fixture(scope="module")
@@ -83,3 +88,38 @@ def test_a_failed_frame_write_stops_the_run_and_keeps_the_checkpoint(tmp_path, m
     arrays, meta = read_checkpoint(tmp_path / CHECKPOINT)  # complete: written before the failure
     assert meta["step"] > 0 and np.all(np.isfinite(arrays["x"]))
     assert not (tmp_path / "summary.json").exists()
+
+
+def test_history_and_summary_carry_the_grid_invisible_energy(fine_history_run):
+    """Each row's grid-invisible energy is >= 0 (Cauchy-Schwarz at each node) and its share of the kinetic
+    energy lies in [0, 1] (0 at time 0: the gel starts with one uniform velocity, seen whole by the grid); the
+    summary's maximum is the history's."""
+    _, _, out = fine_history_run
+    rows = HistoryLog(out / "history.csv", {1: "plate"}).read()
+    e, share = rows["grid_invisible_energy"], rows["grid_invisible_share"]
+    assert share[0] < 1e-12 and np.all(e >= 0)
+    assert np.all((share >= 0) & (share <= 1))
+    summary = json.loads((out / "summary.json").read_text())
+    g = summary["grid_invisible_share"]
+    assert g["max"] == pytest.approx(np.nanmax(share)) and g["final"] == pytest.approx(share[-1])
+
+
+def test_the_summary_reads_the_shares_maximum_and_last_value():
+    """``grid_invisible_share`` of a history: the maximum (NaN rows, at rest, skipped) and its time, the last
+    value; None when every row is NaN."""
+    t = np.arange(5) * 1e-3
+    g = grid_invisible_share({"time": t, "grid_invisible_share": np.array([np.nan, 0.2, 0.05, 0.3, 0.1])})
+    assert g == {"max": 0.3, "time_of_max": 3e-3, "final": 0.1}
+    assert grid_invisible_share({"time": t, "grid_invisible_share": np.full(5, np.nan)}) is None
+
+def test_the_history_column_leaves_rigid_particles_out_and_projects_fields_apart():
+    """GridEnergyColumns on a snapshot: two particles at one point moving apart are invisible energy when
+    they share a field (2 J of 2 J) and none when each has its own field (contact); a rigid one (field -1)
+    enters neither the energy nor the kinetic energy."""
+    data = {"id": np.array([0, 1, 2]), "x": np.array([[0.013, 0.027, 0.041]] * 3), "mass": np.array([2.0, 2.0, 50.0]),
+            "v": np.array([[1.0, 0, 0], [-1.0, 0, 0], [0, 3.0, 0]])}
+    shared = GridEnergyColumns(np.array([0, 0, -1]), np.zeros(3), 0.01).values(data)
+    assert shared == pytest.approx([2.0, 1.0])
+    apart = GridEnergyColumns(np.array([0, 1, -1]), np.zeros(3), 0.01, scale=2 * np.pi).values(data)
+    assert apart == pytest.approx([0.0, 0.0], abs=1e-12)
+

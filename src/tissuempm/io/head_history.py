@@ -30,6 +30,12 @@ Two column providers that :class:`~tissuempm.io.history.HistoryLog` appends to e
   ``head_angular_acceleration_x/y/z`` [rad/s^2], the backward differences of those between this
   row and the previous one: the exact mean acceleration over the row interval, whose integral
   reproduces the velocity change, which is all HIC needs (NaN on the first row).
+* :class:`BrainPressureColumns`, ``brain_pressure_p1`` and ``brain_pressure_p99`` [Pa]: the 1st and 99th
+  percentiles of the brain particles' pressures (``[head] brain``, else every deformable material no skull body
+  uses, as ``tissuempm brain`` takes them). They follow the load and fall back after it in a sound run; a pair
+  that keeps spreading from row to row after the load has passed is the grid-scale mode of docs/validation.md
+  ("A mode that grows in the brain"), which they show in the run, a millisecond or more before the kinetic
+  energy's grid-invisible share (:class:`~tissuempm.io.history.GridEnergyColumns`) does.
 """
 
 from typing import Any
@@ -78,6 +84,26 @@ class ProbeColumns:
 
     def values(self, data: dict[str, Any]) -> list[float]:
         return [v for m in self.members for v in probe_pressure(data, m)]
+
+    def restore(self, row: dict[str, float]) -> None:
+        """Nothing to carry between rows."""
+
+
+class BrainPressureColumns:
+    """``brain_pressure_p1`` and ``brain_pressure_p99`` [Pa]; ``members`` (bool over the seeded particles) selects
+    the brain particles."""
+
+    columns = ["brain_pressure_p1", "brain_pressure_p99"]
+
+    def __init__(self, members: np.ndarray):
+        self.members = np.asarray(members, dtype=bool)
+
+    def values(self, data: dict[str, Any]) -> list[float]:
+        sel = self.members[np.asarray(data["id"], dtype=np.int64)]
+        if not np.any(sel):
+            return [float("nan")] * 2
+        p = -np.trace(np.asarray(data["stress"], float)[sel], axis1=1, axis2=2) / 3.0
+        return [float(q) for q in np.percentile(p, [1.0, 99.0])]
 
     def restore(self, row: dict[str, float]) -> None:
         """Nothing to carry between rows."""
@@ -145,5 +171,9 @@ def head_history_columns(scenario: Any, problem: Any) -> list[Any]:
             members.append(sel)
         out.append(ProbeColumns([p.name for p in scenario.probes], members))
     if scenario.head is not None:
+        from tissuempm.analysis.brain import brain_materials  # here: the analysis package reads io's files
+
         out.append(HeadColumns(np.isin(problem.body, [bodies.index(b) for b in scenario.head.skull])))
+        brain = brain_materials(scenario.model_dump(mode="json", by_alias=True), None)
+        out.append(BrainPressureColumns(np.isin(pd.material, [names.index(m) for m in brain])))
     return out

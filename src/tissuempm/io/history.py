@@ -18,7 +18,7 @@ them); for each removal reason (``outflow``, ``eroded``:
 ``<reason>_kinetic_energy`` [J]; ``removed_rigid_count`` (rigid-body particles removed) and
 ``particles`` (particles left); then the columns of the ``extra`` providers (probe pressures and
 the head's motion of :mod:`tissuempm.io.head_history`; the applied surface forces of
-:class:`SurfaceForceColumns`).
+:class:`SurfaceForceColumns`; the grid-invisible kinetic energy of :class:`GridEnergyColumns`).
 """
 
 import csv
@@ -30,6 +30,7 @@ import numpy as np
 from tissuempm.io.files import atomic_path
 from tissuempm.materials.failure import FailureMode
 from tissuempm.mpm.axisymmetric import whole_body
+from tissuempm.mpm.grid_energy import invisible_energy
 
 
 class HistoryLog:
@@ -124,7 +125,9 @@ class HistoryLog:
 
         A row that is not complete (no line end or too few columns: a run killed while
         appending it) is dropped with the later ones: it was written after the checkpoint
-        the restart starts from.
+        the restart starts from. A file whose header differs from :attr:`columns` (a run started by a
+        version with other columns) is rewritten in today's columns, by name: NaN where the old rows
+        have no value, old columns that are gone dropped.
         """
         if not self.path.exists():
             return
@@ -141,6 +144,9 @@ class HistoryLog:
             if not (len(r) == len(rows[0]) and _is_step(r[1]) and int(r[1]) <= step):
                 break
             keep.append(r)
+        if keep[0] != self.columns:
+            where = {name: k for k, name in enumerate(keep[0])}
+            keep = [self.columns] + [[r[where[c]] if c in where else "nan" for c in self.columns] for r in keep[1:]]
         if len(keep) > 1:
             for provider in self.extra:
                 provider.restore({k: float(v) for k, v in zip(keep[0], keep[-1])
@@ -168,6 +174,32 @@ class SurfaceForceColumns:
 
     def values(self, data: dict[str, Any]) -> list[float]:
         return [float(f) for load in self.loads for f in load.applied_force(data)]
+
+    def restore(self, row: dict[str, float]) -> None:
+        """Nothing to carry between rows."""
+
+
+class GridEnergyColumns:
+    """An ``extra`` provider: ``grid_invisible_energy`` [J], the kinetic energy of the deformable particles that
+    their velocity field holds within the grid's node supports (:func:`tissuempm.mpm.grid_energy.invisible_energy`,
+    each contact field projected on its own), and ``grid_invisible_share``, that energy over the same
+    particles' kinetic energy (NaN while they are at rest). ``field`` (int over the seeded particles): each
+    particle's velocity field, negative for rigid ones (left out); ``lower`` [m] and ``h`` [m]: a grid node and
+    the cell size; ``scale``: 2 pi for an axisymmetric model (whole-body energy), else 1."""
+
+    columns = ["grid_invisible_energy", "grid_invisible_share"]
+
+    def __init__(self, field: np.ndarray, lower: np.ndarray, h: float, scale: float = 1.0):
+        self.field = np.asarray(field, np.int64)
+        self.lower, self.h, self.scale = np.asarray(lower, float), float(h), float(scale)
+
+    def values(self, data: dict[str, Any]) -> list[float]:
+        group = self.field[np.asarray(data["id"], dtype=np.int64)]
+        sel = group >= 0
+        m, v = np.asarray(data["mass"], float)[sel], np.asarray(data["v"], float)[sel]
+        kinetic = 0.5 * float(np.dot(m, (v * v).sum(axis=1)))
+        e = invisible_energy(np.asarray(data["x"], float)[sel], v, m, self.lower, self.h, group[sel])
+        return [self.scale * e, e / kinetic if kinetic > 0 else float("nan")]
 
     def restore(self, row: dict[str, float]) -> None:
         """Nothing to carry between rows."""

@@ -43,6 +43,11 @@ left) stops with status ``"unstable"``; the checkpoint from before the failure i
 ``run.outflow = "remove"`` (default) particles leaving the grid are removed and counted, as are
 eroded ones (:mod:`tissuempm.mpm.removal`): frames then hold fewer particles (the ``id`` field
 follows them), ``history.csv`` and ``summary.json`` (``removed``) hold what they took with them.
+
+Every history row carries the deformable particles' grid-invisible kinetic energy and its share of their
+kinetic energy (:class:`~tissuempm.io.history.GridEnergyColumns`), the summary the share's maximum and last
+value (``grid_invisible_share``): a share that climbs row after row once the load has passed is a grid-scale
+mode growing (docs/mpm.md, "Grid-invisible kinetic energy").
 """
 
 import hashlib
@@ -70,7 +75,7 @@ from tissuempm.io import (
 from tissuempm.io.background import BackgroundWriter
 from tissuempm.io.frames import DEFAULT_FRAME_FIELDS, select_fields, state_names
 from tissuempm.io.head_history import head_history_columns
-from tissuempm.io.history import SurfaceForceColumns
+from tissuempm.io.history import GridEnergyColumns, SurfaceForceColumns
 from tissuempm.materials.failure import FailureMode
 from tissuempm.mpm import ExplicitSolver, ImplicitSolver, InstabilityError, State
 from tissuempm.mpm.state import REMOVAL_COLUMNS, REMOVAL_REASONS
@@ -126,6 +131,16 @@ def material_hashes(scenario: Scenario) -> dict[str, str]:
     }
 
 
+def grid_invisible_share(history: dict[str, np.ndarray]) -> dict[str, float] | None:
+    """``{"max", "time_of_max", "final"}`` of ``grid_invisible_share`` in the columns of ``history.csv``
+    (:meth:`~tissuempm.io.history.HistoryLog.read`); None when no row has one (deformable particles at rest)."""
+    share = history.get("grid_invisible_share")
+    if share is None or not np.any(np.isfinite(share)):
+        return None
+    k = int(np.nanargmax(share))
+    return {"max": float(share[k]), "time_of_max": float(history["time"][k]), "final": float(share[-1])}
+
+
 def _next_multiple(t: float, interval: float) -> float:
     """The first multiple of ``interval`` strictly after ``t`` (with a relative tolerance)."""
     k = math.floor(t / interval * (1.0 + 1e-12) + 1e-12) + 1
@@ -169,6 +184,12 @@ class Runner:
         self.extra_columns = head_history_columns(scenario, self.problem)  # [[probe]], [head] (docs/brain.md)
         if self.problem.loading.surface_forces:  # surface_force_<k>_x/y/z: the applied forces
             self.extra_columns.append(SurfaceForceColumns(self.problem.loading.surface_forces))
+        model, pd = self.problem.model, self.problem.particles
+        rigid = np.array([model.is_rigid(i) for i in range(len(self.materials))])
+        field = np.zeros(pd.n, np.int64) if pd.field is None else pd.field
+        scale = model.volume_factor if model.axisymmetric else 1.0  # whole-body energy of an axisymmetric model
+        self.extra_columns.append(GridEnergyColumns(np.where(rigid[pd.material], -1, field),
+                                                    np.asarray(model.grid.origin), model.grid.cell_size, scale))
         self.startup_s = wallclock.perf_counter() - created
         """Seconds spent building the problem (seeding) and the solver; :meth:`run` adds the
         initial state and the kernel loading."""
@@ -444,6 +465,9 @@ class Runner:
             "instability": instability,
             "version": __version__,
         }
+        share = grid_invisible_share(self.history.read()) if self.history.path.exists() else None
+        if share is not None:
+            out["grid_invisible_share"] = share
         bodies = getattr(self.solver, "free", None)
         if bodies is not None:  # mass (and inertia) in use against the seeded particles' (mpm.free_bodies)
             out["free_bodies"] = {names[i]: p for i, p in bodies.properties().items()}
