@@ -102,8 +102,9 @@ class BrainPressureColumns:
         sel = self.members[np.asarray(data["id"], dtype=np.int64)]
         if not np.any(sel):
             return [float("nan")] * 2
-        p = -np.trace(np.asarray(data["stress"], float)[sel], axis1=1, axis2=2) / 3.0
-        return [float(q) for q in np.percentile(p, [1.0, 99.0])]
+        with np.errstate(over="ignore", invalid="ignore"):  # a run going unstable: inf / NaN; it stops and says why
+            p = -np.trace(np.asarray(data["stress"], float)[sel], axis1=1, axis2=2) / 3.0
+            return [float(q) for q in np.percentile(p, [1.0, 99.0])]
 
     def restore(self, row: dict[str, float]) -> None:
         """Nothing to carry between rows."""

@@ -197,9 +197,11 @@ class GridEnergyColumns:
         group = self.field[np.asarray(data["id"], dtype=np.int64)]
         sel = group >= 0
         m, v = np.asarray(data["mass"], float)[sel], np.asarray(data["v"], float)[sel]
-        kinetic = 0.5 * float(np.dot(m, (v * v).sum(axis=1)))
-        e = invisible_energy(np.asarray(data["x"], float)[sel], v, m, self.lower, self.h, group[sel])
-        return [self.scale * e, e / kinetic if kinetic > 0 else float("nan")]
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflowed velocity: inf / NaN; the run stops
+            kinetic = 0.5 * float(np.dot(m, (v * v).sum(axis=1)))
+            e = invisible_energy(np.asarray(data["x"], float)[sel], v, m, self.lower, self.h, group[sel])
+            share = e / kinetic if kinetic > 0 else float("nan")
+        return [self.scale * e, share]
 
     def restore(self, row: dict[str, float]) -> None:
         """Nothing to carry between rows."""
