@@ -16,8 +16,8 @@ is measured here as
 with M_i = sum_p S_ip m_p, P_i = sum_p S_ip m_p v_p and V_i = P_i / M_i (the second form, from sum_i S_ip = 1,
 shows it is the energy of velocity differences within each node's support; Cauchy-Schwarz at each node gives
 the sign). S_ip are trilinear hat functions on a grid of cell size h (the solver's GIMP or B-spline weights
-differ by the particle's extent; for a measure of grid-scale content the hat suffices). Each body is projected on
-its own, so two bodies sliding past each other at a node (contact) add nothing. A velocity field that is smooth
+differ by the particle's extent; for a measure of grid-scale content the hat suffices). Each group (the run's
+history: each contact field) is projected on its own, so two bodies sliding past each other at a node add nothing. A velocity field that is smooth
 on the scale h holds a share of order (h |grad v| / |v|)^2 of its energy there (it shrinks as h^2); a share that
 grows from row to row is energy piling up at the grid scale: with FLIP in a nearly incompressible body, the mode
 that grows in the head model's brain (docs/validation.md, "A mode that grows in the brain").
@@ -31,7 +31,7 @@ def invisible_energy(
 ) -> float:
     """E_inv [J] (module docstring) of particles at ``x`` [m] (n, 3) moving at ``v`` [m/s] (n, 3) with masses
     ``m`` [kg] (n,), on the grid of cell size ``h`` [m] with a node at ``lower`` [m] (3,); ``group`` (n,)
-    labels: particles of different groups (bodies) are projected on separate nodal records."""
+    labels: particles of different groups (contact fields) are projected on separate nodal records."""
     x, v, m = np.asarray(x, float), np.asarray(v, float), np.asarray(m, float)
     if len(m) == 0:
         return 0.0
