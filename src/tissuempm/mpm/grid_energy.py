@@ -14,13 +14,14 @@ is measured here as
             = \\sum_i \\sum_p S_{ip}\\, \\tfrac12 m_p |v_p - V_i|^2 \\ \\ge 0,
 
 with M_i = sum_p S_ip m_p, P_i = sum_p S_ip m_p v_p and V_i = P_i / M_i (the second form, from sum_i S_ip = 1,
-shows it is the energy of velocity differences within each node's support; Cauchy-Schwarz at each node gives
-the sign). S_ip are trilinear hat functions on a grid of cell size h (the solver's GIMP or B-spline weights
-differ by the particle's extent; for a measure of grid-scale content the hat suffices). Each group (the run's
-history: each contact field) is projected on its own, so two bodies sliding past each other at a node add
-nothing. A velocity field that is smooth on the scale h holds a share of order (h |grad v| / |v|)^2 of its energy there (it shrinks as h^2); a share that
-grows from row to row is energy piling up at the grid scale: with FLIP in a nearly incompressible body, the mode
-that grows in the head model's brain (docs/validation.md, "A mode that grows in the brain").
+shows it is the energy of velocity differences within each node's support; Cauchy-Schwarz at each node gives the
+sign). S_ip are trilinear hat functions on a grid of cell size h (the solver's GIMP or B-spline weights differ
+by the particle's extent; for a measure of grid-scale content the hat suffices). Each group (the run's history:
+each contact field) is projected on its own, so two bodies sliding past each other at a node add nothing. A
+velocity field that is smooth on the scale h holds a share of order (h |grad v| / |v|)^2 of its energy there (it
+shrinks as h^2); a share that grows from row to row is energy piling up at the grid scale: with FLIP in a nearly
+incompressible body, the mode that grows in the head model's brain (docs/validation.md, "A mode that grows in
+the brain").
 """
 
 import numpy as np
