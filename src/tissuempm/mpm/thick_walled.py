@@ -71,14 +71,15 @@ def _radius(x: np.ndarray, geometry: Geometry) -> np.ndarray:
 @dataclass(frozen=True)
 class WallRun:
     """The relaxed wall: initial and final particle centres (n, 3), particle volumes per radian, the
-    mask of the innermost layer (the loaded particles), the final history (n, n_state), the particle
-    spacing, the steps taken, the geometry and the outer radius b."""
+    mask of the innermost layer (the loaded particles), the final history (n, n_state) and pressure
+    -tr(sigma)/3 [Pa] (n,), the particle spacing, the steps taken, the geometry and the outer radius b."""
 
     x0: np.ndarray
     x: np.ndarray
     volume: np.ndarray
     inner: np.ndarray
     history: np.ndarray
+    pressure: np.ndarray
     spacing: float
     steps: int
     geometry: Geometry
@@ -115,8 +116,12 @@ class WallRun:
 
 def pressurised_wall(material: Material, *, a: float, b: float, p: float, cells: int, anti_locking: AntiLocking,
                      geometry: Geometry = "cylinder", ramp: float = 1.5, hold: float = 3.0,
-                     threads: int = 1) -> WallRun:  # fmt: skip
+                     threads: int = 1, outer: tuple[Material, float] | None = None) -> WallRun:  # fmt: skip
     """Relax the wall a < r < b of ``material`` under the internal pressure ``p`` [Pa].
+
+    ``outer = (material_2, c)``: a compound wall, ``material`` for a < r < c and ``material_2`` for
+    c < r < b, bonded (particles by their centre's radius; :func:`compound_lame`); the relaxation time
+    is the slower layer's.
 
     ``cells`` uGIMP cells through the wall, 2 x 2 particles per cell. The cylinder is a slice two cells
     long with slip faces at both ends; the sphere is its upper half (slip face at the equator y = 0,
@@ -145,13 +150,15 @@ def pressurised_wall(material: Material, *, a: float, b: float, p: float, cells:
         x = x[(r > a) & (r < b)]
     r = _radius(x, geometry)
     vol = x[:, 0] * sp**2
-    model = Model(grid=grid, materials=[material], boundaries=faces, axisymmetric=True)
-    T = 2 * math.pi * (b - a) / math.sqrt(material.small_strain_moduli()[1] / rho)
+    materials = [material] if outer is None else [material, outer[0]]
+    layer = np.zeros(len(x), np.int32) if outer is None else (r > outer[1]).astype(np.int32)
+    model = Model(grid=grid, materials=materials, boundaries=faces, axisymmetric=True)
+    T = max(2 * math.pi * (b - a) / math.sqrt(m.small_strain_moduli()[1] / m.density) for m in materials)
     cfg = SolverConfig(threads=threads, cfl=0.3, flip=1.0, damping=4 * math.pi / T, sort_interval=0,
                        anti_locking=anti_locking)  # fmt: skip
     solver = ExplicitSolver(model, cfg)
     size = np.tile([sp, sp, h], (len(x), 1))
-    st = solver.initial_state(ParticleData(x=x, volume=vol, size=size, material=np.zeros(len(x), np.int32)))
+    st = solver.initial_state(ParticleData(x=x, volume=vol, size=size, material=layer))
     inner = r < a + sp
     power = 1 if geometry == "cylinder" else 2
     acc = np.zeros_like(x)
@@ -163,10 +170,31 @@ def pressurised_wall(material: Material, *, a: float, b: float, p: float, cells:
     while st.time < hold * T:
         solver.step(st, None, Control(body_acceleration=acc * min(1.0, st.time / (ramp * T))))
         steps += 1
-    out = WallRun(x0=x, x=st.x.numpy(), volume=vol, inner=inner, history=st.history.numpy(), spacing=sp,
-                  steps=steps, geometry=geometry, outer=b)  # fmt: skip
+    pressure = -np.trace(st.stress.numpy(), axis1=1, axis2=2) / 3.0
+    out = WallRun(x0=x, x=st.x.numpy(), volume=vol, inner=inner, history=st.history.numpy(), pressure=pressure,
+                  spacing=sp, steps=steps, geometry=geometry, outer=b)  # fmt: skip
     solver.close()
     return out
+
+
+def compound_lame(p: float, a: float, c: float, b: float, inner: tuple[float, float],
+                  outer: tuple[float, float]) -> tuple[tuple[float, float], tuple[float, float]]:  # fmt: skip
+    """Lame's compound cylinder in plane strain: the bonded layers a < r < c (``inner`` = (K, G) [Pa]) and
+    c < r < b (``outer``) under the internal pressure ``p``, free outside. In each layer
+    u = A r + B / r, sigma_rr = 2 (lambda + G) A - 2 G B / r^2 and the pressure -tr(sigma)/3 = -2 K A is
+    uniform (sigma_zz = 2 lambda A, lambda = K - 2G/3); the four constants from sigma_rr(a) = -p,
+    sigma_rr(b) = 0 and u, sigma_rr continuous at c. Returns ((A1, B1), (A2, B2))."""
+
+    def rows(r: float, K: float, G: float) -> tuple[list[float], list[float]]:
+        lam = K - 2 * G / 3
+        return [r, 1 / r], [2 * (lam + G), -2 * G / r**2]  # u, sigma_rr per (A, B)
+
+    u_c1, s_c1 = rows(c, *inner)
+    u_c2, s_c2 = rows(c, *outer)
+    M = np.array([[*rows(a, *inner)[1], 0, 0], [0, 0, *rows(b, *outer)[1]],
+                  [*u_c1, *[-v for v in u_c2]], [*s_c1, *[-v for v in s_c2]]])  # fmt: skip
+    A1, B1, A2, B2 = np.linalg.solve(M, [-p, 0.0, 0.0, 0.0])
+    return (float(A1), float(B1)), (float(A2), float(B2))
 
 
 def lame_displacement(r: float, p: float, a: float, b: float, K: float, G: float,
