@@ -58,9 +58,9 @@ def test_contact_pairs_that_bonds_contradict_are_refused():
 
 
 # ------------------------------------------------------------------------------ nodal correction
-def _nodal_contact(nf: int, rigid_field: int | None, seed: int = 0, separation: str = "node"):
+def _nodal_contact(nf: int, rigid_field: int | None, seed: int = 0, separation: str = "node", law: str = "friction"):
     """Random nodal states of ``nf`` fields on a small grid, corrected by the UPDATE contact
-    kernel (friction mu = 0.3 between every pair, the ``separation`` criterion; the nodal centres
+    kernel (friction mu = 0.3 between every pair, or ``law``, the ``separation`` criterion; the nodal centres
     of mass are random, within a cell of the node). Returns masses, rigid flags, velocities
     before and after, and the reaction impulses dt R added to the rigid records."""
     init_warp()
@@ -86,7 +86,8 @@ def _nodal_contact(nf: int, rigid_field: int | None, seed: int = 0, separation: 
         v[:, rigid_field] = 0.0
     v4 = np.zeros((n_nodes, nf, 4))
     v4[..., :3] = v
-    laws = {(a, b): ContactLaw("friction", 0.3, separation) for a in range(nf) for b in range(a + 1, nf)}
+    contact_law = ContactLaw("friction", 0.3, separation) if law == "friction" else ContactLaw(law, 0.0, separation)
+    laws = {(a, b): contact_law for a in range(nf) for b in range(a + 1, nf)}
     C = Contact(nf, laws).kernel_args(t, "cpu")
     arr = lambda a: wp.array(a.reshape(-1, 4), dtype=t.vec4, device="cpu")  # noqa: E731
     vel, inc, react = arr(v4), arr(np.zeros_like(v4)), arr(np.zeros_like(v4))
@@ -105,12 +106,14 @@ def _nodal_contact(nf: int, rigid_field: int | None, seed: int = 0, separation: 
     return g_mm[..., 3], g_c[..., 3] > 0, v, after, d_inc, impulse
 
 
+@pytest.mark.parametrize("law", ["friction", "sliding"])
 @pytest.mark.parametrize("separation", ["gap", "node"])
 @pytest.mark.parametrize("nf", [2, 3])
-def test_contact_conserves_nodal_momentum_and_creates_no_energy(nf, separation):
+def test_contact_conserves_nodal_momentum_and_creates_no_energy(nf, separation, law):
     """Per node: sum_f m_f v_f is unchanged (round-off: 1e-12 of the momentum scale), the FLIP
-    increment takes the same change as the velocity, and the kinetic energy does not grow."""
-    m, _, before, after, d_inc, _ = _nodal_contact(nf, None, separation=separation)
+    increment takes the same change as the velocity, and the kinetic energy does not grow (the
+    sliding law's tie removes a separating normal velocity as the others remove an approaching one)."""
+    m, _, before, after, d_inc, _ = _nodal_contact(nf, None, separation=separation, law=law)
     changed = np.any(np.abs(after - before) > 0, axis=(1, 2))
     assert changed.sum() > 20  # the random states do exercise the correction
     p0 = np.einsum("nf,nfa->na", m, before)
@@ -314,6 +317,49 @@ def test_disks_rebound_and_separate_with_frictionless_contact():
     assert np.all(np.diff(dist[late]) > 0)  # moving apart
     assert gap > 0.05  # more than one cell between the disks
     assert energy.max() <= e0 * 1.005
+
+
+def _pulled_apart(law: str | None):
+    """Two neo-Hookean cubes side by side along x (A: x < 0, B: x > 0, 4 cells each way), A moving
+    away from B along x and sliding along y at 0.1 m/s each, B at rest; 60 steps (0.02 s, a wave
+    transit of the pair). ``law`` between them (None: bonded, one field). Returns the x and y momenta
+    of A at the start and of B and of the pair at the end."""
+    h, sp = 0.01, 0.005
+    a = lattice((-0.04, -0.02, -0.02), (0.0, 0.02, 0.02), sp)
+    b = lattice((0.0, -0.02, -0.02), (0.04, 0.02, 0.02), sp)
+    which = np.r_[np.zeros(len(a), int), np.ones(len(b), int)]
+    contact = None if law is None else Contact(2, {(0, 1): ContactLaw(law)})
+    model = Model(grid=Grid(origin=(-0.08, -0.06, -0.06), cell_size=h, shape=(16, 12, 12)),
+                  materials=[NeoHookean(C10=1e4, K=1e5, density=1000.0)], contact=contact)  # fmt: skip
+    v = np.zeros((len(which), 3))
+    v[which == 0] = (-0.1, 0.1, 0.0)
+    pd = ParticleData(x=np.vstack([a, b]), volume=sp**3, size=sp, material=0, velocity=v,
+                      field=which if law is not None else 0)  # fmt: skip
+    solver = ExplicitSolver(model, SolverConfig(threads=1, cfl=0.4))
+    st = solver.initial_state(pd)
+    m = 1000.0 * sp**3
+    p_a0 = m * v[which == 0].sum(axis=0)
+    for _ in range(60):
+        solver.step(st)
+    order = np.argsort(st.id.numpy())
+    vel = st.v.numpy()[order]
+    solver.close()
+    return p_a0, m * vel[which == 1].sum(axis=0), m * vel.sum(axis=0)
+
+
+def test_sliding_contact_ties_the_normal_and_lets_the_tangent_slide():
+    """Pulled apart and sliding: with ``"sliding"`` B is dragged along the normal (its x momentum more
+    than a fifth of A's initial one) but not along the tangent (its y momentum under 3 % of A's);
+    ``"frictionless"`` lets the cubes separate (B keeps exactly no momentum); bonded (one field) drags
+    B both ways (more than a tenth of A's y momentum). The pair's momentum is conserved to round-off in every case."""
+    runs = {law: _pulled_apart(law) for law in ("sliding", "frictionless", None)}
+    for p_a0, _, p_pair in runs.values():
+        np.testing.assert_allclose(p_pair, p_a0, atol=1e-12 * np.abs(p_a0).max())
+    p_a0, p_b, _ = runs["sliding"]
+    assert p_b[0] < -0.2 * abs(p_a0[0]) and abs(p_b[1]) < 0.03 * p_a0[1]
+    assert np.all(runs["frictionless"][1] == 0.0)
+    p_a0, p_b, _ = runs[None]
+    assert p_b[0] < -0.2 * abs(p_a0[0]) and p_b[1] > 0.1 * p_a0[1]
 
 
 # ------------------------------------------------------------------------------ flat punch

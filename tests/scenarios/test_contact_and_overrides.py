@@ -55,6 +55,38 @@ def test_contact_with_unknown_body_is_named():
         Scenario.from_dict(data)
 
 
+def three_bodies(*contacts):
+    data = two_bodies()
+    data["body"].append(
+        {"name": "cap", "material": "tissue",
+         "shape": {"type": "box", "lower": ["2 mm", "2 mm", "9 mm"], "upper": ["8 mm", "8 mm", "10 mm"]}}
+    )  # fmt: skip
+    data["contact"] = list(contacts)
+    return data
+
+
+def test_contact_between_groups_acts_between_every_pair_across_them():
+    """``bodies = [A, [B, C]]`` is the law between A and B and between A and C (B and C bonded: one field)."""
+    prob = build(Scenario.from_dict(three_bodies({"bodies": ["tissue", ["probe", "cap"]], "law": "sliding"})))
+    assert prob.model.contact.n_fields == 2 and prob.model.contact.laws[(0, 1)].kind == "sliding"
+    field = dict(zip(("tissue", "probe", "cap"), (int(prob.particles.field[prob.body == i][0]) for i in range(3))))
+    assert field["probe"] == field["cap"] != field["tissue"]
+
+
+@pytest.mark.parametrize(
+    "contacts, text",
+    [
+        ([{"bodies": ["tissue", ["probe", "tissue"]], "law": "sliding"}], r"\['tissue'\] on both sides"),
+        ([{"bodies": [["tissue", "cap"], "probe"], "law": "sliding"},
+          {"bodies": ["probe", "cap"], "law": "frictionless"}], r"contact\[1\]\.bodies: a second law for the pair"),
+        ([{"bodies": ["tissue", ["probe", "lid"]], "law": "sliding"}], r"contact\[0\]\.bodies: 'lid' is not a body"),
+    ],
+)  # fmt: skip
+def test_bad_contact_groups_are_named(contacts, text):
+    with pytest.raises(ScenarioError, match=text):
+        Scenario.from_dict(three_bodies(*contacts))
+
+
 def test_overrides_set_nested_keys_with_units():
     data = apply_overrides(
         copy.deepcopy(BASE),

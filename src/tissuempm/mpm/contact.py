@@ -27,7 +27,9 @@ every node where two fields ``a`` and ``b`` both have mass:
    the punch is a sliver) read as in contact and the held force of the flat punch rose from +2.6 %
    to +24 %;
 2. the fields approach when ``(v_a - v_b) . n > 0``; separating fields are left alone
-   (separation is free);
+   (separation is free), except under the ``"sliding"`` law, whose fields are tied along the normal:
+   steps 2 and 3 do not apply to it, and step 4 removes the normal relative velocity of every pair
+   of its fields at every shared node;
 3. they touch (``separation = "gap"``, below; ``"node"``: always, the original method);
 4. approaching fields that touch exchange the impulse ``J`` (``a`` loses it, ``b`` gains it)
    that removes the normal relative velocity, with the tangential part limited by Coulomb friction::
@@ -138,7 +140,7 @@ from tissuempm.mpm.model import GHOST
 from tissuempm.options import check
 from tissuempm.precision import WarpTypes, kernel
 
-ContactKind = Literal["bonded", "frictionless", "friction"]
+ContactKind = Literal["bonded", "frictionless", "friction", "sliding"]
 CONTACT_KINDS: tuple[str, ...] = get_args(ContactKind)
 Separation = Literal["gap", "node"]
 SEPARATIONS: tuple[str, ...] = get_args(Separation)
@@ -149,7 +151,8 @@ the reach |n_x| + |n_y| + |n_z| [cells] of a node's support along the normal (eq
 that for ``"bspline"``, whose weights reach 1.5 cells)."""
 FRICTIONLESS = wp.constant(1)
 FRICTION = wp.constant(2)
-_CODE = {"frictionless": 1, "friction": 2}
+SLIDING = wp.constant(3)
+_CODE = {"frictionless": 1, "friction": 2, "sliding": 3}
 
 
 @dataclass(frozen=True)
@@ -161,7 +164,12 @@ class ContactLaw:
     kind
         ``"bonded"``: one velocity field (no slip, no separation: single-field MPM);
         ``"frictionless"``: separation allowed, no interpenetration, free sliding;
-        ``"friction"``: as frictionless, with Coulomb friction ``mu`` on sliding.
+        ``"friction"``: as frictionless, with Coulomb friction ``mu`` on sliding;
+        ``"sliding"``: free sliding, tied along the normal (no separation, no interpenetration: the
+        normal relative velocity is removed at every shared node, approaching or not, with no gap test),
+        the sliding interface of head models (brain and CSF on the skull: the fluid layer transmits
+        tension, so the contrecoup's negative pressure needs the tie, and does not transmit the skull's
+        tangential stretching into the nearly incompressible brain).
     mu
         Coulomb friction coefficient (>= 0), only for ``"friction"``.
     separation
@@ -544,13 +552,14 @@ def contact_kernel(t: WarpTypes, mode: int, NF: int, shape: str = "gimp", axisym
                 vb = head(v_vel[rb])
                 dv = va - vb
                 dvn = wp.dot(dv, nrm)
-                if dvn <= s(0.0):
+                tied = kind == SLIDING  # the normal relative velocity goes, approaching or separating
+                if dvn <= s(0.0) and not tied:
                     continue
-                if C.gap[a * NF + b] != 0:
+                if C.gap[a * NF + b] != 0 and not tied:
                     if not touching(G.g_x, ra, rb, x_node, nrm, inv_h, dvn * inv_h / inv_dt):
                         continue
                 dvp = wp.dot(dv, push)
-                if dvp <= s(0.0):
+                if dvp <= s(0.0) and not tied:
                     continue
                 ma = g_mm[ra][3]
                 mb = g_mm[rb][3]

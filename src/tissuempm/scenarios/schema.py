@@ -556,21 +556,40 @@ class ContactSection(_ContactOptions):  # type: ignore[valid-type, misc]
 
     Pairs not listed are ``bonded`` (one velocity field: they stick together, as single-field
     MPM); ``frictionless`` and ``friction`` give each side its own velocity field, allow
-    separation and sliding and forbid interpenetration, with Coulomb friction ``mu``.
-    ``separation``: when the two act on each other, ``"gap"`` once their surfaces touch,
-    ``"node"`` as soon as they share a grid node (about a cell early; for older results).
+    separation and sliding and forbid interpenetration, with Coulomb friction ``mu``; ``sliding``
+    lets them slide freely but ties them along the normal (neither separation nor interpenetration:
+    brain and CSF on the skull). ``separation`` (not for ``sliding``): when the two act on each other,
+    ``"gap"`` once their surfaces touch, ``"node"`` as soon as they share a grid node (about a cell
+    early; for older results).
+
+    ``bodies``: two bodies, or two groups of bodies (each side a name or a list of names): the law then
+    acts between every body of one side and every body of the other, e.g. the intracranial bodies
+    against the skull's and the scalp (``[["csf", "cerebrum_grey_matter", ...], ["skull_inner_table",
+    ...]]``; docs/head.md).
     """
 
-    bodies: Annotated[list[str], Field(min_length=2, max_length=2)]
+    bodies: Annotated[list[str | list[str]], Field(min_length=2, max_length=2)]
 
     @model_validator(mode="after")
     def _mu_with_friction(self) -> "ContactSection":
         problem = ContactLaw.friction_problem(self.law, self.mu, key="law")
         if problem:
             raise ValueError(problem)
-        if self.bodies[0] == self.bodies[1]:
-            raise ValueError(f"bodies = {self.bodies}: a body cannot be in contact with itself")
+        first, second = self.sides()
+        both = sorted(set(first) & set(second))
+        if both:
+            raise ValueError(f"bodies = {self.bodies}: {both} on both sides (a body cannot be in contact with itself)")
         return self
+
+    def sides(self) -> tuple[list[str], list[str]]:
+        """The two sides' body names."""
+        a, b = ([s] if isinstance(s, str) else list(s) for s in self.bodies)
+        return a, b
+
+    def pairs(self) -> list[tuple[str, str]]:
+        """Every (body of the first side, body of the second) pair the law acts between."""
+        first, second = self.sides()
+        return [(a, b) for a in first for b in second]
 
 
 class BlastSection(Section):
@@ -1170,12 +1189,13 @@ class Scenario(Section):
                     raise ValueError(f"fixed[{i}].bodies: {b!r} is not a body name: choose from {body_names}")
         pairs = set()
         for i, c in enumerate(self.contacts):
-            for b in c.bodies:
+            for b in (name for side in c.sides() for name in side):
                 if b not in body_names:
                     raise ValueError(f"contact[{i}].bodies: {b!r} is not a body name: choose from {body_names}")
-            if frozenset(c.bodies) in pairs:
-                raise ValueError(f"contact[{i}].bodies: a second law for the pair {c.bodies}")
-            pairs.add(frozenset(c.bodies))
+            for pair in c.pairs():
+                if frozenset(pair) in pairs:
+                    raise ValueError(f"contact[{i}].bodies: a second law for the pair {list(pair)}")
+                pairs.add(frozenset(pair))
         if self.contacts:
             self.contact_fields()  # raises naming the bodies when the pairs contradict each other
             if self.solver.integrator == "implicit" or self.solver.grid == "no_reset":
@@ -1353,7 +1373,7 @@ class Scenario(Section):
         ``[[contact]]`` (:func:`~tissuempm.mpm.contact.assign_fields`)."""
         from tissuempm.mpm.contact import assign_fields
 
-        laws = {tuple(c.bodies): c.config() for c in self.contacts}
+        laws = {pair: c.config() for c in self.contacts for pair in c.pairs()}
         return assign_fields(self.body_names(), laws)  # type: ignore[arg-type]
 
     def build_materials(self) -> list[Any]:
