@@ -89,7 +89,7 @@ def main() -> None:
     parser.add_argument("levels", nargs="+", help="H=RUN: cell size in mm and the run folder (or its record)")
     parser.add_argument("--shifted", nargs="*", default=[], metavar="H=RUN",
                         help="levels run with the grid moved by half a cell (tabled apart, open markers)")
-    parser.add_argument("--figure", type=Path, default=Path("docs/figures/nahum_convergence.png"))
+    parser.add_argument("--figure", type=Path, help="where to draw the levels (default: no figure)")
     parser.add_argument("--title", default="Nahum 1977 exp. 37: convergence with the cell size")
     args = parser.parse_args()
     records = load(args.levels)
@@ -98,8 +98,9 @@ def main() -> None:
     if shifted:
         print("\ngrid moved by half a cell:")
         print(table(shifted))
-    figure(records, args.figure, args.title, shifted)
-    print(f"wrote {args.figure}")
+    if args.figure:
+        figure(records, args.figure, args.title, shifted)
+        print(f"wrote {args.figure}")
 
 
 if __name__ == "__main__":
