@@ -188,6 +188,32 @@ def test_probe_pressure_of_a_hydrostatic_column(tmp_path: Path) -> None:
             assert abs(spread[-1]) < 1e-6 * p[-1], name
 
 
+def test_brain_line_profile_of_the_hydrostatic_column(tmp_path: Path) -> None:
+    """``tissuempm brain --line`` down the column's axis from its top (z = 10 cm) in 10 mm bins (one cell each): at
+    rest p = rho g s at the bin's mean depth s (0.5 %, as the probes above; the top cell, whose particles' supports
+    reach past the free surface, reads 4.9 % low); one profile a frame after the first;
+    the JSON and the figure written; a malformed line or a line beside the body is an error naming --line, exit 2."""
+    col = tmp_path / "col"
+    assert Runner(scenario(COLUMN), col).run().status == "completed"
+    res = CliRunner().invoke(app, ["brain", str(col), "--brain", "water", "--line", "5,5,100:0,0,-2",
+                                   "--line-radius", "6", "--line-bin", "10", "--line-length", "100"])  # fmt: skip
+    assert res.exit_code == 0, res.output
+    data = json.loads((col / "brain" / "line_profile.json").read_text())
+    assert [round(f["time"], 2) for f in data["frames"]] == [0.1, 0.2, 0.3]  # the first step at or after each output time
+    assert data["direction"] == [0.0, 0.0, -1.0] and data["start"] == pytest.approx([0.005, 0.005, 0.1])
+    last = data["frames"][-1]
+    s, p = np.asarray(last["s"]), np.asarray(last["pressure"])
+    assert len(p) == 10 and np.all(np.asarray(last["count"]) == 8)
+    np.testing.assert_allclose(p[1:], 1000 * 9.81 * s[1:], rtol=0.005)  # measured within 0.15 %
+    assert p[0] == pytest.approx(1000 * 9.81 * s[0], rel=0.06)  # the cell at the free top: 4.9 % low, measured
+    assert (col / "brain" / "line_profile.png").stat().st_size > 1000
+    for line, text in (("5,5,100", "--line '5,5,100': expected"), ("5,5,100:0,0,0", "the direction is zero"),
+                       ("50,50,100:0,0,-1", "no particle of water lies within 6 mm")):  # fmt: skip
+        res = CliRunner().invoke(app, ["brain", str(col), "--no-figures", "--brain", "water", "--line", line,
+                                       "--line-radius", "6"])  # fmt: skip
+        assert res.exit_code == 2 and text in res.output, res.output
+
+
 def test_probe_without_particles_and_unknown_names_are_named(tmp_path: Path) -> None:
     text = COLUMN.replace('position = ["0.5 cm", "0.5 cm", "7.5 cm"]', 'position = ["0.5 cm", "0.5 cm", "11.5 cm"]')
     with pytest.raises(ValueError, match=r"probe\[0\] \('d25'\) holds no particle"):

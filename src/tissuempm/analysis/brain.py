@@ -197,6 +197,11 @@ def _scenario(run_dir: Path) -> dict[str, Any]:
         raise AnalysisError(f"{path} is not readable JSON: {e}") from None
 
 
+def scenario_materials(run_dir: str | Path) -> list[str]:
+    """The run's material names in order (the ``material`` field of its frames indexes them)."""
+    return list(_scenario(Path(run_dir))["materials"])
+
+
 def _status(path: Path) -> str | None:
     """The run's ``status`` in ``summary.json`` (None while it runs or without the file)."""
     try:
@@ -360,7 +365,7 @@ def selection(run_dir: str | Path, report: BrainReport) -> dict[str, np.ndarray]
 
     run_dir = Path(run_dir)
     data = read_particles(run_dir)
-    names = list(_scenario(run_dir)["materials"])
+    names = scenario_materials(run_dir)
     sel = np.isin(np.asarray(data["material"]).astype(int), [names.index(m) for m in report.brain_materials])
     peak = np.asarray(data["peak_mps"], float)[sel]
     return {"x0": np.asarray(data["x0"], float)[sel],

@@ -69,20 +69,41 @@ def brain(
     strain: Annotated[str, typer.Option("--strain", help="green (maximum principal Green-Lagrange strain) "
                                         "or log (logarithmic strain).")] = "green",
     no_figures: Annotated[bool, typer.Option("--no-figures", help="Write brain.json only.")] = False,
+    line: Annotated[str | None, typer.Option("--line", help="A line 'X,Y,Z:DX,DY,DZ' (start in mm, direction), "
+                                             "e.g. the blow's: the brain's pressure along it at every frame, "
+                                             "written to line_profile.json (and .png).")] = None,
+    line_radius: Annotated[float, typer.Option("--line-radius", help="Radius [mm] of the cylinder round the "
+                                               "line.")] = 12.0,
+    line_bin: Annotated[float, typer.Option("--line-bin", help="Bin width [mm] along the line.")] = 6.0,
+    line_length: Annotated[float, typer.Option("--line-length", help="Length [mm] of the line.")] = 200.0,
 ) -> None:
     """Brain injury metrics: probe pressures, peak MPS, CSDM, von Mises, head accelerations, HIC (docs/brain.md)."""
     try:
         report = analyse_brain(run_dir, brain_materials or None, skull, probe or None, strain)
+        profile = None
+        if line is not None:
+            from tissuempm.analysis.brain import scenario_materials
+            from tissuempm.analysis.brain_line import line_profiles, parse_line
+
+            start, direction = parse_line(line)
+            profile = line_profiles(run_dir, report.brain_materials, scenario_materials(run_dir), start, direction,
+                                    line_radius * 1e-3, line_bin * 1e-3, line_length * 1e-3)  # fmt: skip
     except AnalysisError as e:
         err_console.print(f"[red]error:[/red] {escape(str(e))}", highlight=False, soft_wrap=True)
         raise typer.Exit(2) from None
     out_dir = out if out is not None else run_dir / "brain"
     data = report.to_dict()
     write_json(out_dir / "brain.json", data)
+    if profile is not None:
+        write_json(out_dir / "line_profile.json", profile)
     if not no_figures:
         from tissuempm.analysis.brain_figures import brain_figures
 
         brain_figures(run_dir, report, out_dir)
+        if profile is not None:
+            from tissuempm.analysis.brain_line import line_figure
+
+            line_figure(profile, out_dir / "line_profile.png")
     if json_output:
         typer.echo(json.dumps(data, indent=2))
     else:
