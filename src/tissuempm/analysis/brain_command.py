@@ -82,12 +82,11 @@ def brain(
         report = analyse_brain(run_dir, brain_materials or None, skull, probe or None, strain)
         profile = None
         if line is not None:
-            from tissuempm.analysis.brain import scenario_materials
             from tissuempm.analysis.brain_line import line_profiles, parse_line
 
             start, direction = parse_line(line)
-            profile = line_profiles(run_dir, report.brain_materials, scenario_materials(run_dir), start, direction,
-                                    line_radius * 1e-3, line_bin * 1e-3, line_length * 1e-3)  # fmt: skip
+            profile = line_profiles(run_dir, report.brain_materials, start, direction, line_radius * 1e-3,
+                                    line_bin * 1e-3, line_length * 1e-3)  # fmt: skip
     except AnalysisError as e:
         err_console.print(f"[red]error:[/red] {escape(str(e))}", highlight=False, soft_wrap=True)
         raise typer.Exit(2) from None

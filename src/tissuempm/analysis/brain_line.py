@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from tissuempm.analysis.brain import scenario_materials
 from tissuempm.analysis.errors import AnalysisError
 from tissuempm.analysis.frames import Run
 from tissuempm.analysis.profile import line_profile
@@ -45,10 +46,10 @@ def parse_line(text: str) -> tuple[np.ndarray, np.ndarray]:
     return start * 1e-3, direction / norm
 
 
-def line_profiles(run_dir: str | Path, materials: list[str], material_names: list[str], start: np.ndarray,
-                  direction: np.ndarray, radius: float, width: float, length: float) -> dict[str, Any]:  # fmt: skip
-    """The profile of every frame after the first (the initial state) for the particles of ``materials`` (names
-    among the run's ``material_names``), along ``direction`` from ``start`` [m], within ``radius`` [m], bins of
+def line_profiles(run_dir: str | Path, materials: list[str], start: np.ndarray, direction: np.ndarray,
+                  radius: float, width: float, length: float) -> dict[str, Any]:  # fmt: skip
+    """The profile of every frame after the first (the initial state) for the particles of ``materials`` (the
+    run's material names), along ``direction`` from ``start`` [m], within ``radius`` [m], bins of
     ``width`` [m] up to ``length`` [m]; as a JSON-ready dict (NaN where a bin is empty).
 
     Raises
@@ -62,7 +63,8 @@ def line_profiles(run_dir: str | Path, materials: list[str], material_names: lis
     run = Run(run_dir)
     if len(run) < 2:
         raise AnalysisError(f"{run_dir}: the run has no frame after the initial state (nothing to profile)")
-    ids = [material_names.index(m) for m in materials]
+    names = scenario_materials(run_dir)
+    ids = [names.index(m) for m in materials]
     frames = []
     edges: list[float] = []
     for index in range(1, len(run)):
