@@ -158,3 +158,8 @@ def test_output_key_paths_and_history_reductions():
     assert values == {"f": 2.0, "max(f)": 2.0, "min(f)": -4.0, "absmax(f)": 4.0, "mean(f)": pytest.approx(-1 / 3)}
     with pytest.raises(MissingOutput):
         history_value(columns, "max(g)")
+    # an undefined row (the first row of an acceleration column) is skipped, not propagated
+    columns = {"a": np.array([np.nan, 3.0, -5.0]), "u": np.array([np.nan, np.nan])}
+    values = {name: history_value(columns, name) for name in ("max(a)", "min(a)", "absmax(a)", "mean(a)")}
+    assert values == {"max(a)": 3.0, "min(a)": -5.0, "absmax(a)": 5.0, "mean(a)": -1.0}
+    assert np.isnan(history_value(columns, "max(u)")) and np.isnan(history_value(columns, "u"))

@@ -3,7 +3,9 @@
 A key path reads nested JSON the way the study file writes it: ``diagnostics.kinetic_energy``,
 ``exit.diameter``, ``projectile.residual_velocity[1]``. A history output is a column at the end of the
 run (its last row) or a reduction over all rows: ``max(c)``, ``min(c)``, ``absmax(c)`` = max |c|,
-``mean(c)`` (the plain mean of the rows, one per frame).
+``mean(c)`` (the plain mean of the rows, one per frame). A reduction skips rows where the column is
+undefined (NaN: the first row of the ``head_*acceleration*`` columns, which need a previous row) and is NaN
+only when every row is.
 """
 
 import json
@@ -22,6 +24,7 @@ _STEP = re.compile(r"([^.\[\]]+)|\[(\d+)\]")
 _REDUCE: dict[str, Callable[[np.ndarray], Any]] = {
     "min": np.min, "max": np.max, "absmax": lambda c: np.max(np.abs(c)), "mean": np.mean
 }
+"""Reductions over the defined (non-NaN) rows of a column."""
 WOUND = Path("wound") / "wound.json"
 """The wound report of a run, inside its folder (as ``tissuempm wound`` writes it)."""
 
@@ -57,7 +60,10 @@ def history_value(columns: dict[str, np.ndarray], name: str) -> float:
     if column not in columns:
         raise MissingOutput(name)
     values = columns[column]
-    return float(values[-1] if reduce is None else _REDUCE[reduce](values))
+    if reduce is None:
+        return float(values[-1])
+    defined = values[~np.isnan(values)]
+    return float(_REDUCE[reduce](defined)) if defined.size else float("nan")
 
 
 def collect(folder: Path, summary: dict[str, Any], outputs: Outputs) -> tuple[dict[str, Any], list[str]]:
