@@ -87,6 +87,7 @@ def study_plots(rows: list[dict[str, Any]], parameters: list[str], outputs: list
             fig, ax = plt.subplots(figsize=(5.5, 4))
             _line(ax, x, y, good, joined=len(parameters) == 1)
             ax.set(xlabel=p, ylabel=out, title=title)
+            ax.ticklabel_format(style="sci", scilimits=(-3, 4), useMathText=True)  # SI values: 5e4 Pa, not 50000
             ax.grid(alpha=0.3)
             path = folder / f"{_file(out)}__vs__{_file(p)}.png"
             fig.savefig(path, dpi=120, bbox_inches="tight")
