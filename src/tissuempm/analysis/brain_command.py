@@ -79,12 +79,13 @@ def brain(
 ) -> None:
     """Brain injury metrics: probe pressures, peak MPS, CSDM, von Mises, head accelerations, HIC (docs/brain.md)."""
     try:
-        report = analyse_brain(run_dir, brain_materials or None, skull, probe or None, strain)
-        profile = None
-        if line is not None:
+        if line is not None:  # a malformed line fails before the run is read
             from tissuempm.analysis.brain_line import line_profiles, parse_line
 
             start, direction = parse_line(line)
+        report = analyse_brain(run_dir, brain_materials or None, skull, probe or None, strain)
+        profile = None
+        if line is not None:
             profile = line_profiles(run_dir, report.brain_materials, start, direction, line_radius * 1e-3,
                                     line_bin * 1e-3, line_length * 1e-3)  # fmt: skip
     except AnalysisError as e:

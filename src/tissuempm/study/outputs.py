@@ -24,7 +24,7 @@ _STEP = re.compile(r"([^.\[\]]+)|\[(\d+)\]")
 _REDUCE: dict[str, Callable[[np.ndarray], Any]] = {
     "min": np.min, "max": np.max, "absmax": lambda c: np.max(np.abs(c)), "mean": np.mean
 }
-"""Reductions over the defined (non-NaN) rows of a column."""
+"""The reductions; :func:`history_value` applies them to a column's defined (non-NaN) rows."""
 WOUND = Path("wound") / "wound.json"
 """The wound report of a run, inside its folder (as ``tissuempm wound`` writes it)."""
 
