@@ -317,3 +317,20 @@ def test_completely_failed_particle_may_invert_without_stopping_the_run():
         st = state_with(0.0)  # intact
         for _ in range(3):
             solver.step(st)
+
+
+def test_the_finaliser_does_not_wait_for_the_thread_pool():
+    """A solver collected without close() lets its pool's threads end by themselves: ``__del__`` returns while a
+    pool task still runs (waiting there deadlocked a test run when the collector ran inside a thread's start)."""
+    import threading
+
+    s = ExplicitSolver(small_model(), SolverConfig(threads=2, chunks=2))
+    gate, returned = threading.Event(), threading.Event()
+    s._pool.submit(gate.wait, 30)
+    t = threading.Thread(target=lambda: (s.__del__(), returned.set()))
+    t.start()
+    try:
+        assert returned.wait(5)
+    finally:
+        gate.set()
+        t.join()

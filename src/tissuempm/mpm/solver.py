@@ -1038,15 +1038,17 @@ class ExplicitSolver(Integrator):
         host: Any = st.host  # set on a CPU
         return float(gm[int(host["lo"][:: K.SLOT].min()) : int(host["hi"][:: K.SLOT].max()) + 1].sum())
 
-    def close(self) -> None:
-        """Shut the thread pool down."""
+    def close(self, wait: bool = True) -> None:
+        """Shut the thread pool down (``wait``: until its threads have ended)."""
         if self._pool is not None:
-            self._pool.shutdown()
+            self._pool.shutdown(wait=wait)
             self._pool = None
 
-    def __del__(self) -> None:  # pragma: no cover
+    def __del__(self) -> None:
+        # Never wait for threads in a finaliser: the garbage collector may run it inside threading's own
+        # bookkeeping (a new thread's start holds the lock a join needs), and waiting there deadlocks.
         try:
-            self.close()
+            self.close(wait=False)
         except Exception:
             pass
 
