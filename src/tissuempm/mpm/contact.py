@@ -143,6 +143,7 @@ from tissuempm.precision import WarpTypes, kernel
 ContactKind = Literal["bonded", "frictionless", "friction", "sliding"]
 CONTACT_KINDS: tuple[str, ...] = get_args(ContactKind)
 Separation = Literal["gap", "node"]
+Normals = Literal["sobel", "smoothed"]
 SEPARATIONS: tuple[str, ...] = get_args(Separation)
 
 BAND = 0.6
@@ -177,11 +178,24 @@ class ContactLaw:
         when the gap between their surfaces, estimated from the nodal centres of mass, has closed;
         ``"node"`` as soon as both have mass at the node (Bardenhagen et al. 2000; bodies act about
         one cell larger than they are: the behaviour before the gap estimate, for older results).
+    normals
+        How the contact normal is found from each field's nodal masses (module docstring, step 1):
+        ``"sobel"`` (default) their 27-node Sobel difference (3 nodes a side);
+        ``"smoothed"`` the Sobel difference of their 27-node box mean (125 nodes, 5 a side, masses
+        mirrored across slip faces). The bodies' surfaces are particle staircases, so a local
+        normal errs by an angle that does not fall with the cell size; where the bodies slide past
+        each other at speed v_t that error turns part of v_t into a normal correction, a grid-scale
+        velocity kick to the surface nodes that strains a soft body without end under refinement
+        (a frictionless brain in a turning spherical cavity, whose exact strain is 0:
+        ``benchmarks/brain_cavity_strain.py``, docs/validation.md "Brain and CSF sliding on the
+        skull"). The wider difference averages over more of the staircase (Nairn, Hammerquist &
+        Smith 2020, CMAME 362, 112859, on the normal as the main error of multimaterial contact).
     """
 
     kind: ContactKind = "bonded"
     mu: Annotated[float, Field(ge=0.0, allow_inf_nan=False)] = 0.0
     separation: Separation = "gap"
+    normals: Normals = "sobel"
 
     def __post_init__(self) -> None:
         check(self, prefix="contact ")  # each option by its annotation, shared with [[contact]] (tissuempm.options)
@@ -224,44 +238,48 @@ class Contact:
             if law.kind == "bonded":
                 raise ValueError(f"Contact.laws[{pair}]: bonded bodies belong in one field")
 
-    def tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(kind code, mu, gap criterion 1/0) per ordered field pair, flattened ``a * n_fields + b``
-        (kernel input)."""
+    def tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(kind code, mu, gap criterion 1/0, smoothed normals 1/0) per ordered field pair, flattened
+        ``a * n_fields + b`` (kernel input)."""
         nf = self.n_fields
         kind = np.zeros(nf * nf, dtype=np.int32)
         mu = np.zeros(nf * nf)
         gap = np.zeros(nf * nf, dtype=np.int32)
+        wide = np.zeros(nf * nf, dtype=np.int32)
         for (a, b), law in self.laws.items():
             for i, j in ((a, b), (b, a)):
                 kind[i * nf + j] = _CODE[law.kind]
                 mu[i * nf + j] = law.mu
                 gap[i * nf + j] = int(law.separation == "gap")
-        return kind, mu, gap
+                wide[i * nf + j] = int(law.normals == "smoothed")
+        return kind, mu, gap, wide
 
     def kernel_args(self, t: WarpTypes, device: str) -> Any:
         """The contact kernel's :func:`contact_struct` with :meth:`tables` on ``device`` in precision
         ``t`` (one per solver; its ``inv_dt`` is set before each correction)."""
-        kind, mu, gap = self.tables()
+        kind, mu, gap, wide = self.tables()
         C = contact_struct(t)()
         C.kind = wp.array(kind, dtype=wp.int32, device=device)
         C.mu = wp.array(mu.astype(t.numpy), dtype=t.scalar, device=device)
         C.gap = wp.array(gap, dtype=wp.int32, device=device)
+        C.wide = wp.array(wide, dtype=wp.int32, device=device)
         return C
 
 
 @functools.cache
 def contact_struct(t: WarpTypes) -> Any:
     """``Pairs``, the Warp struct of the arguments that :func:`contact_kernel` takes besides the solver's
-    ``Grid`` and ``Step`` (:func:`~tissuempm.mpm.kernels.kernel_structs`): the law tables ``kind``, ``mu``
-    and ``gap`` per ordered field pair (:meth:`Contact.tables`, flattened ``a * n_fields + b``) and the
-    step's ``inv_dt`` = 1 / dt [1/s] (rounded once from the double-precision dt, as the reaction
-    impulse and the gap closure take it)."""
+    ``Grid`` and ``Step`` (:func:`~tissuempm.mpm.kernels.kernel_structs`): the law tables ``kind``, ``mu``,
+    ``gap`` and ``wide`` (smoothed normals) per ordered field pair (:meth:`Contact.tables`, flattened
+    ``a * n_fields + b``) and the step's ``inv_dt`` = 1 / dt [1/s] (rounded once from the double-precision
+    dt, as the reaction impulse and the gap closure take it)."""
 
     @wp.struct
     class Pairs:
         kind: wp.array(dtype=wp.int32)
         mu: wp.array(dtype=t.scalar)
         gap: wp.array(dtype=wp.int32)
+        wide: wp.array(dtype=wp.int32)
         inv_dt: t.scalar
 
     return Pairs
@@ -448,6 +466,51 @@ def contact_kernel(t: WarpTypes, mode: int, NF: int, shape: str = "gimp", axisym
         return g
 
     @wp.func
+    def along(i: int):
+        """Weight of tap ``i`` (0..4) along the smoothed difference's axis: (-1, -1, 0, 1, 1)."""
+        return s(wp.where(i < 2, -1, wp.where(i > 2, 1, 0)))
+
+    @wp.func
+    def across(i: int):
+        """Weight of tap ``i`` (0..4) across the smoothed difference's axis: (1, 3, 4, 3, 1)."""
+        d = wp.abs(i - 2)
+        return s(wp.where(d == 0, 4, wp.where(d == 1, 3, 1)))
+
+    @wp.func
+    def mass_gradient_smoothed(
+        g_mm: wp.array(dtype=vec4), g_c: wp.array(dtype=vec4), ijk: wp.vec3i, f: int, dims: wp.vec3i,
+        bc_kind: wp.array(dtype=wp.int32), r_lo: int, r_hi: int,
+    ):  # fmt: skip
+        """Sobel difference of the 27-node box mean of field ``f``'s nodal mass round node ``ijk``
+        (direction only): per axis the weights (-1, -1, 0, 1, 1) along it and (1, 3, 4, 3, 1) across
+        it (the box (1, 1, 1) convolved with the Sobel's (-1, 0, 1) and (1, 2, 1)), over 5 x 5 x 5
+        nodes. A node beyond a slip face reads its mirror image (a symmetry plane: the mirror body
+        is not on the grid); beyond the ghost layer, no mass. Areal masses when axisymmetric, as
+        ``mass_gradient``."""
+        sx, sy = node_strides(dims)
+        g = vec3()
+        for i in range(5):
+            for j in range(5):
+                for k in range(5):
+                    q = wp.vec3i(ijk[0] + i - 2, ijk[1] + j - 2, ijk[2] + k - 2)
+                    inside = True
+                    for a in range(3):
+                        if bc_kind[2 * a] == BC_SLIP and q[a] < 0:
+                            q[a] = -q[a]
+                        if bc_kind[2 * a + 1] == BC_SLIP and q[a] > dims[a]:
+                            q[a] = 2 * dims[a] - q[a]
+                        if q[a] < -GHOST or q[a] > dims[a] + GHOST:
+                            inside = False
+                    if inside:
+                        r = ((q[0] + GHOST) * sx + (q[1] + GHOST) * sy + q[2] + GHOST) * NF + f
+                        m = record_mass(g_mm, g_c, r, r_lo, r_hi)
+                        if wp.static(AX):
+                            m = m / wp.max(s(q[0]), s(1.0 / 3.0))
+                        g += m * vec3(along(i) * across(j) * across(k), across(i) * along(j) * across(k),
+                                      across(i) * across(j) * along(k))  # fmt: skip
+        return g
+
+    @wp.func
     def symmetric(nrm: vec3, ijk: wp.vec3i, dims: wp.vec3i, bc_kind: wp.array(dtype=wp.int32)):
         """``nrm`` without its component across a slip face (a symmetry plane) that the node lies on
         (or beyond): the bodies' mirror images would give that component, so it is 0 by symmetry.
@@ -528,8 +591,14 @@ def contact_kernel(t: WarpTypes, mode: int, NF: int, shape: str = "gimp", axisym
                 cb = g_c[rb][3] > s(0.0)
                 if ca and cb:
                     continue
-                ga = mass_gradient(g_mm, g_c, n, a, sx, sy, r_lo, r_hi)
-                gb = mass_gradient(g_mm, g_c, n, b, sx, sy, r_lo, r_hi)
+                ga = vec3()
+                gb = vec3()
+                if C.wide[a * NF + b] != 0:
+                    ga = mass_gradient_smoothed(g_mm, g_c, ijk, a, dims, G.bc_kind, r_lo, r_hi)
+                    gb = mass_gradient_smoothed(g_mm, g_c, ijk, b, dims, G.bc_kind, r_lo, r_hi)
+                else:
+                    ga = mass_gradient(g_mm, g_c, n, a, sx, sy, r_lo, r_hi)
+                    gb = mass_gradient(g_mm, g_c, n, b, sx, sy, r_lo, r_hi)
                 nrm = gb - ga  # contact normal (detection) and the direction of the impulse (step 1)
                 push = nrm
                 if ca or cb:  # the rigid field's own normal; the impulse along the larger gradient's
