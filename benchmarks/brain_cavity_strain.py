@@ -5,8 +5,10 @@ docs/validation.md, "The sliding contact's normal" (issue 20). The scenarios (lo
 ``normals``) are :func:`tissuempm.head.cavity.cavity_scenario`'s; ``--skull`` and ``--holder`` set the
 deformable wall's thicknesses (12 mm each by default).
 
-For each cell size, one ``tissuempm run`` to 3 ms and the 95th percentile of the brain particles'
-tracked peak MPS in bands of distance from the nearest wall particle (reference positions)::
+For each cell size, one ``tissuempm run`` to 3 ms, the 95th percentile of the brain particles'
+tracked peak MPS in bands of distance from the nearest wall particle (reference positions), and, under
+``rotation``, the fill's drag: the fraction of the wall's rotation it follows (exact 0;
+:mod:`tissuempm.analysis.relative_motion`)::
 
     python benchmarks/brain_cavity_strain.py --load gravity --wall deformable --cells 8 6 5 --out runs/cavity
     python benchmarks/brain_cavity_strain.py --load rotation --wall rigid --geometry voxel --cells 8 6 5 4
@@ -24,16 +26,18 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from tissuempm.analysis.frames import Run
+from tissuempm.analysis.relative_motion import relative_rotation
 from tissuempm.head.cavity import cavity_scenario
 
 BANDS_MM = ((0, 4), (4, 8), (8, 16), (16, 100))
 
 
-def bands(run_dir: Path) -> list[tuple[float, int]]:
-    """(95th percentile of peak MPS, particles) of the brain in each band of distance from the wall."""
+def bands(run_dir: Path) -> tuple[list[tuple[float, int]], float]:
+    """(95th percentile of peak MPS, particles) of the brain in each band of distance from the wall, and
+    the fraction of the wall's rotation the brain follows (nan for a wall that does not turn)."""
     run = Run(run_dir)
     fr = run.load(len(run.times) - 1)
-    body, x0 = fr.field("body").astype(int), fr.field("x0")
+    body, x0, x = fr.field("body").astype(int), fr.field("x0"), fr.points
     brain, wall = body == 0, body == 1
     depth, _ = cKDTree(x0[wall]).query(x0[brain])
     mps = fr.field("peak_mps")[brain]
@@ -41,32 +45,39 @@ def bands(run_dir: Path) -> list[tuple[float, int]]:
     for lo, hi in BANDS_MM:
         m = (depth >= lo * 1e-3) & (depth < hi * 1e-3)
         out.append((float(np.percentile(mps[m], 95)) if m.any() else float("nan"), int(m.sum())))
-    return out
+    return out, relative_rotation(x0[brain], x[brain], x0[wall], x[wall]).drag
 
 
 def plot(root: Path, figure: Path) -> None:
-    """Near-wall (0-4 mm) and deep (16 mm on) bands of every series under ``root`` against h."""
+    """Near-wall (0-4 mm) and deep (16 mm on) bands of every series under ``root``, and the drag of the
+    ``rotation`` series, against h."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
-    for series in sorted(p for p in root.iterdir() if p.is_dir()):
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
+    for i, series in enumerate(sorted(p for p in root.iterdir() if p.is_dir())):
         runs = sorted((float(r.name[1:]), r) for r in series.glob("h*") if (r / "summary.json").exists())
         if len(runs) < 2:
             continue
         h = [x for x, _ in runs]
         b = [bands(r) for _, r in runs]
         style = "--" if series.name.endswith("smoothed") else "-"
-        for ax, k in zip(axes, (0, len(BANDS_MM) - 1), strict=True):
-            ax.plot(h, [row[k][0] for row in b], style, marker="o", label=series.name)
-    for ax, title in zip(axes, ("0-4 mm from the wall", "16 mm and deeper"), strict=True):
+        for ax, k in zip(axes[:2], (0, len(BANDS_MM) - 1), strict=True):
+            ax.plot(h, [row[0][k][0] for row in b], style, marker="o", color=plt.cm.tab20(i % 20), label=series.name)
+        if series.name.startswith("rotation"):
+            axes[2].plot(h, [row[1] for row in b], style, marker="o", color=plt.cm.tab20(i % 20), label=series.name)
+    titles = ("p95 of peak MPS, 0-4 mm from the wall", "p95 of peak MPS, 16 mm and deeper",
+              "drag: fraction of the wall's turn the fill follows")  # fmt: skip
+    for ax, title in zip(axes, titles, strict=True):
         ax.set_xlabel("cell size h [mm]")
-        ax.set_title(title)
+        ax.set_title(title, fontsize=10)
         ax.invert_xaxis()
         ax.grid(alpha=0.3)
-    axes[0].set_ylabel("p95 of peak MPS at 3 ms (exact ~0)")
+    axes[0].set_ylabel("at 3 ms (exact ~0)")
+    axes[1].sharey(axes[0])
+    axes[2].set_ylim(bottom=0.0)
     axes[1].legend(fontsize=7)
     fig.suptitle("Brain in a cavity (benchmarks/brain_cavity_strain.py): solid = Sobel normals, dashed = smoothed")
     fig.tight_layout()
@@ -98,15 +109,17 @@ def main() -> None:
     text = cavity_scenario(args.load, args.wall, args.geometry, args.interface, folder, args.normals, args.skull,
                            args.holder)  # fmt: skip
     toml.write_text(text)
-    print(f"| {folder.name}, cell h | " + " | ".join(f"{a}-{b} mm from the wall" for a, b in BANDS_MM) + " |")
-    print("|---|" + "---|" * len(BANDS_MM))
+    print(f"| {folder.name}, cell h | " + " | ".join(f"{a}-{b} mm from the wall" for a, b in BANDS_MM)
+          + " | drag |")  # fmt: skip
+    print("|---|" + "---|" * (len(BANDS_MM) + 1))
     for h in args.cells:
         run_dir = folder / f"h{h:g}"
         cmd = ["tissuempm", "run", str(toml), "--out", str(run_dir), "--set", f'grid.cell_size="{h:g} mm"']
         with (folder / f"h{h:g}.log").open("w") as log:
             subprocess.run(cmd, check=True, stdout=log, stderr=log)
-        cells = [f"{p:.4f} ({n})" for p, n in bands(run_dir)]
-        print(f"| {h:g} mm | " + " | ".join(cells) + " |", flush=True)
+        strain, drag = bands(run_dir)
+        cells = [f"{p:.4f} ({n})" for p, n in strain]
+        print(f"| {h:g} mm | " + " | ".join(cells) + f" | {drag:.3f} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -310,6 +310,11 @@ def test_brain_cli_on_a_tiny_run(tmp_path: Path) -> None:
     assert rep["csdm"]["0.10"] == pytest.approx(float(vol[a["peak_mps"][sel] > 0.1].sum() / vol.sum()))
     coup = next(p for p in rep["probes"] if p["name"] == "coup")
     assert coup["max_pressure"] > 0 and 0 < coup["time_of_max"] <= 0.002
+    # neither block turns (the skull falls, the brain squashes symmetrically on the floor): the brain's turn
+    # in the skull's frame, from the frames at 0, 1 and 2 ms, is round-off (the drag is then undefined)
+    turn = rep["brain_in_skull"]
+    assert turn["frames"] == 3 and turn["skull_deg"] < 1e-6 and turn["peak_relative_deg"] < 1e-4
+    assert "brain turn in the skull" in CliRunner().invoke(app, ["brain", str(out), "--no-figures"]).output
     # log strain of the same stretch: ln(1 + 2 E)/2
     res = CliRunner().invoke(app, ["brain", str(out), "--json", "--strain", "log", "--no-figures", "--out",
                                    str(tmp_path / "b")])  # fmt: skip

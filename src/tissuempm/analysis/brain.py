@@ -12,7 +12,10 @@ with ``[[probe]]`` or ``[head]``; :mod:`tissuempm.mpm.tracking`):
   stretch on request (``strain="log"``);
 * the peak von Mises stress, where and when;
 * the head's peak linear and angular acceleration and HIC15, HIC36 (:func:`hic`) from the skull's
-  ``head_*`` columns (or, for another ``skull`` body, from its motion between frames).
+  ``head_*`` columns (or, for another ``skull`` body, from its motion between frames);
+* the brain's rotation relative to the skull (``[head] skull`` bodies) at the frames, its largest angle and
+  the drag then, the fraction of the skull's rotation the brain follows
+  (:mod:`tissuempm.analysis.relative_motion`).
 
 The particle data come from ``checkpoint.h5`` (full precision; the runner writes it at the end of
 the run) or, without it, from the last frame.
@@ -120,6 +123,7 @@ class BrainReport:
     peak_von_mises_time: float
     peak_von_mises_position: list[float]
     head: dict[str, Any] | None = None
+    brain_in_skull: dict[str, Any] | None = None
     notes: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
@@ -279,6 +283,34 @@ def _head_from_frames(run_dir: Path, sc: dict[str, Any], skull: str) -> tuple[np
     return t_, np.vstack([nan, np.diff(v, axis=0) / dt]), np.vstack([nan, np.diff(w, axis=0) / dt])
 
 
+def brain_in_skull(run_dir: Path, sc: dict[str, Any], brain_ids: list[int]) -> dict[str, Any] | None:
+    """The brain's (materials ``brain_ids``) rotation in the frame of the ``[head] skull`` bodies at each
+    frame, mass-weighted best fits (:func:`tissuempm.analysis.relative_motion.relative_rotation`): the
+    largest relative angle [deg], its time, the skull's angle and the drag then, and the values at the last
+    frame; None without ``[head] skull`` bodies."""
+    from tissuempm.analysis.frames import Run
+    from tissuempm.analysis.relative_motion import relative_rotation
+
+    run = Run(run_dir)
+    skull = [run.body_names.index(n) for n in (sc.get("head") or {}).get("skull") or [] if n in run.body_names]
+    if not skull:
+        return None
+    rows = []
+    for i in range(len(run)):
+        fr = run.load(i)
+        b = np.isin(np.asarray(fr.fields["material"]), brain_ids)
+        s = np.isin(np.asarray(fr.fields["body"]), skull)
+        if b.any() and s.any():
+            x0, x, m = fr.fields["x0"], fr.points, fr.fields["mass"]
+            rows.append((fr.time, relative_rotation(x0[b], x[b], x0[s], x[s], m[b], m[s])))
+    if not rows:
+        return None
+    t, peak = max(rows, key=lambda r: r[1].relative)
+    return {"peak_relative_deg": peak.relative, "time": t, "skull_deg": peak.outer, "drag": peak.drag,
+            "final_relative_deg": rows[-1][1].relative, "final_skull_deg": rows[-1][1].outer,
+            "final_drag": rows[-1][1].drag, "frames": len(rows)}  # fmt: skip
+
+
 def head_metrics(t: np.ndarray, a: np.ndarray, alpha: np.ndarray, source: str) -> dict[str, Any]:
     """Peak resultant linear [m/s^2, g] and angular [rad/s^2] acceleration with their times, HIC15, HIC36."""
     amag, wmag = np.linalg.norm(a, axis=1), np.linalg.norm(alpha, axis=1)
@@ -356,6 +388,7 @@ def analyse_brain(run_dir: str | Path, brain: list[str] | None = None, skull: st
         report.head = head_metrics(t, a, alpha, f"frames (body {skull!r})")
     elif (kin := _head_from_history(hist)) is not None:
         report.head = head_metrics(*kin, "history.csv (head_* columns of [head] skull)")
+    report.brain_in_skull = brain_in_skull(run_dir, sc, [names.index(m) for m in mats])
     return report
 
 

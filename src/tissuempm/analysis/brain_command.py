@@ -49,6 +49,9 @@ def _table(report: BrainReport, out: Path | None) -> Table:
         _row(table, "head angular acceleration", f"{h['peak_angular_acceleration']:.4g} rad/s^2 at "
                                                    f"{h['time_of_peak_angular'] * 1e3:.4g} ms")
         _row(table, "HIC15 / HIC36", f"{h['HIC15']['value']:.4g} / {h['HIC36']['value']:.4g} ({h['source']})")
+    if (r := report.brain_in_skull) is not None:
+        _row(table, "brain turn in the skull", f"{r['peak_relative_deg']:.3g} deg at {r['time'] * 1e3:.4g} ms (skull "
+                                                 f"{r['skull_deg']:.3g} deg, drag {r['drag']:.3g}; frames)")
     if out is not None:
         _row(table, "written to", str(out))
     return table
