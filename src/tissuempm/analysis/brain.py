@@ -355,7 +355,8 @@ def analyse_brain(run_dir: str | Path, brain: list[str] | None = None, skull: st
     data = read_particles(run_dir)
     mats = brain_materials(sc, brain)
     names = list(sc["materials"])
-    sel = np.isin(np.asarray(data["material"]).astype(int), [names.index(m) for m in mats])
+    brain_ids = [names.index(m) for m in mats]
+    sel = np.isin(np.asarray(data["material"]).astype(int), brain_ids)
     if not sel.any():
         raise AnalysisError(f"no particle of the brain materials {mats} is left in the run")
     vol = np.asarray(data["volume0"], float)[sel]
@@ -388,7 +389,7 @@ def analyse_brain(run_dir: str | Path, brain: list[str] | None = None, skull: st
         report.head = head_metrics(t, a, alpha, f"frames (body {skull!r})")
     elif (kin := _head_from_history(hist)) is not None:
         report.head = head_metrics(*kin, "history.csv (head_* columns of [head] skull)")
-    report.brain_in_skull = brain_in_skull(run_dir, sc, [names.index(m) for m in mats])
+    report.brain_in_skull = brain_in_skull(run_dir, sc, brain_ids)
     return report
 
 
