@@ -239,3 +239,34 @@ def test_script_measures_known_pulses(tmp_path):
     assert res["probes"]["posterior_fossa"]["min"] == pytest.approx(-60e3, rel=0.01)
     text = nv.table(res)
     assert "| peak impact force [kN] | 7.9 | 7.90" in text and "| 1.00 |" in text
+
+
+SYNTHETIC_SCENARIO = ROOT / "examples" / "validation" / "synthetic_force.toml"
+
+
+def test_synthetic_force_scenario_is_the_force_pulse_on_the_synthetic_head(tmp_path):
+    """synthetic_force.toml (docs/validation.md, "The synthetic head"): the force-pulse scenario's solver,
+    contact, symmetry face, [head] and load on the 2 mm synthetic head of `tissuempm head build --synthetic`
+    (generated here: no download), its patch centred where the blow's line through the brain's centroid
+    leaves the scalp (within one particle spacing, 4 mm, at 8 mm cells), the whole head inside the grid."""
+    from tissuempm.scenarios.build import build
+    from tissuempm.scenarios.schema import load_scenario
+
+    result = CliRunner().invoke(app, ["head", "build", "--synthetic", "--resolution", "2 mm",
+                                      "--out", str(tmp_path / "synthetic_head.nii.gz")])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    shutil.copy(SYNTHETIC_SCENARIO, tmp_path)
+    sc = load_scenario(tmp_path / SYNTHETIC_SCENARIO.name)
+    ref = load_scenario(FORCE_SCENARIO)
+    assert sc.solver == ref.solver and sc.boundaries == ref.boundaries and sc.head == ref.head
+    assert sc.contacts == ref.contacts
+    (sf,), (sf_ref,) = sc.surface_forces, ref.surface_forces
+    assert (sf.peak, sf.duration, sf.pulse, sf.radius, sf.bodies) == (sf_ref.peak, sf_ref.duration, sf_ref.pulse,
+                                                                        sf_ref.radius, sf_ref.bodies)  # fmt: skip
+    assert np.asarray(sf.direction) == pytest.approx(np.asarray(sf_ref.direction))
+    prob = build(sc)
+    assert len(np.unique(prob.body)) == len(sc.bodies) == 11
+    assert np.linalg.norm(_exit_point(sc, prob) - np.asarray(sf.centre)) < 4e-3
+    x = prob.particles.x
+    lo, hi = np.asarray(sc.grid.lower), np.asarray(sc.grid.upper)
+    assert np.all(x.min(axis=0) - lo >= [0.0, 0.008, 0.008]) and np.all(hi - x.max(axis=0) >= 0.008)
