@@ -15,6 +15,7 @@ bands' percentiles and counts, the turns), under ``--tag``.
 import argparse
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -23,6 +24,19 @@ from tissuempm.analysis.frames import Run
 from tissuempm.analysis.relative_motion import relative_rotation
 
 BANDS_MM = ((0, 5), (5, 10), (10, 20), (20, 40), (40, 200))
+
+
+def head_frame(path: Path, time: float) -> tuple[dict, Any, np.ndarray, np.ndarray]:
+    """(scenario, the frame nearest ``time``, brain mask, skull mask) of a run folder: the brain the bodies of
+    the ``[head] brain`` materials, the skull the ``[head] skull`` bodies (also for brain_strain_slices.py)."""
+    run = Run(path)
+    sc = json.loads((path / "scenario.json").read_text())
+    brain_materials = set(sc["head"]["brain"])  # [head] brain names materials
+    brain = [i for i, b in enumerate(sc["body"]) if b.get("material") in brain_materials]
+    skull = [run.body_names.index(n) for n in sc["head"]["skull"]]
+    fr = run.load(int(np.argmin(np.abs(np.asarray(run.times) - time))))
+    body = fr.field("body").astype(int)
+    return sc, fr, np.isin(body, brain), np.isin(body, skull)
 
 
 def main() -> None:
@@ -37,15 +51,8 @@ def main() -> None:
           + " | skull turn | brain in skull | drag |")  # fmt: skip
     print("|---|---|" + "---|" * (len(BANDS_MM) + 3))
     for path in args.runs:
-        run = Run(path)
-        sc = json.loads((path / "scenario.json").read_text())
-        names = run.body_names
-        brain_materials = set(sc["head"]["brain"])  # [head] brain names materials
-        brain = [i for i, b in enumerate(sc["body"]) if b.get("material") in brain_materials]
-        skull = [names.index(n) for n in sc["head"]["skull"]]
-        fr = run.load(int(np.argmin(np.abs(np.asarray(run.times) - args.time))))
-        body, x0, x = fr.field("body").astype(int), fr.field("x0"), fr.points
-        b, s = np.isin(body, brain), np.isin(body, skull)
+        sc, fr, b, s = head_frame(path, args.time)
+        x0, x = fr.field("x0"), fr.points
         depth, _ = cKDTree(x0[s]).query(x0[b])
         mps = fr.field("peak_mps")[b]
         cells, bands = [], []

@@ -13,7 +13,7 @@ tracked peak maximum principal strain (``peak_mps``), one panel per run on one c
 """
 
 import argparse
-import json
+import sys
 from pathlib import Path
 
 import matplotlib
@@ -22,23 +22,21 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from tissuempm.analysis.frames import Run  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from brain_strain_depth import head_frame  # noqa: E402
 
 
-def slice_of(path: Path, time: float, plane: float) -> tuple[np.ndarray, np.ndarray, float, float, float]:
-    """(reference (y, z) [mm] of the brain particles on the plane, their peak MPS, cell size [mm], particle
-    spacing [mm], frame time [s])."""
-    run = Run(path)
-    sc = json.loads((path / "scenario.json").read_text())
-    brain_materials = set(sc["head"]["brain"])
-    brain = [i for i, b in enumerate(sc["body"]) if b.get("material") in brain_materials]
+def slice_of(path: Path, time: float, plane: float | None) -> tuple[np.ndarray, np.ndarray, float, float, float]:
+    """(reference (y, z) [mm] of the brain particles on the plane x = ``plane`` (None: the layer of the
+    smallest reference x), their peak MPS, cell size [mm], particle spacing [mm], frame time [s])."""
+    sc, fr, brain, _ = head_frame(path, time)
     h = sc["grid"]["cell_size"]
     spacing = min(h / b.get("particles_per_cell", 2) for b in sc["body"])
-    k = int(np.argmin(np.abs(np.asarray(run.times) - time)))
-    fr = run.load(k)
-    x0, body = fr.field("x0"), fr.field("body").astype(int)
-    sel = np.isin(body, brain) & (np.abs(x0[:, 0] - plane) < 0.5 * spacing + 1e-12)
-    return 1e3 * x0[sel][:, 1:], fr.field("peak_mps")[sel], 1e3 * h, 1e3 * spacing, float(run.times[k])
+    x0 = fr.field("x0")
+    if plane is None:  # the layer next to the symmetry plane
+        plane = float(x0[:, 0].min())
+    sel = brain & (np.abs(x0[:, 0] - plane) < 0.5 * spacing + 1e-12)
+    return 1e3 * x0[sel][:, 1:], fr.field("peak_mps")[sel], 1e3 * h, 1e3 * spacing, float(fr.time)
 
 
 def main() -> None:
@@ -60,10 +58,7 @@ def main() -> None:
         ax.set_visible(False)
     art = None
     for i, (ax, path) in enumerate(zip(axes.flat, args.runs)):
-        plane = args.plane
-        if plane is None:  # the layer next to the symmetry plane: the smallest reference x of the run's particles
-            plane = float(Run(path).load(0).field("x0")[:, 0].min())
-        yz, mps, h, spacing, t = slice_of(path, args.time, plane)
+        yz, mps, h, spacing, t = slice_of(path, args.time, args.plane)
         ax.set_xlim(yz[:, 0].min() - spacing, yz[:, 0].max() + spacing)
         ax.set_ylim(yz[:, 1].min() - spacing, yz[:, 1].max() + spacing)
         ax.set_aspect("equal")

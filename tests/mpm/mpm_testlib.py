@@ -107,3 +107,29 @@ name = "{name}"
 material = "{name}"
 shape = {{ type = "box", lower = [0, "-10 mm", "-10 mm"], upper = ["4 mm", "10 mm", "10 mm"] }}
 """
+
+
+def contact_pass(t: WarpTypes, contact: Any, dims: tuple[int, int, int], h: float, dt: float, g_mm: np.ndarray,
+                 g_c: np.ndarray, g_x: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """One UPDATE launch of the contact kernel (:func:`tissuempm.mpm.contact.contact_kernel`) on nodal records
+    given as (n_nodes, n_fields, 4) arrays (mass records ``g_mm``, constraint records ``g_c``, position
+    records ``g_x``, velocities ``v`` with the 4th entry unused) of a grid of ``dims`` cells of size ``h``
+    with no grid-face conditions, for the :class:`~tissuempm.mpm.Contact` ``contact``. Returns the corrected
+    velocities, the FLIP increments and the reaction impulses dt R, each (n_nodes, n_fields, 3)."""
+    from tissuempm.mpm import kernels as K
+    from tissuempm.mpm.contact import contact_kernel
+
+    n_nodes, nf = g_mm.shape[:2]
+    C = contact.kernel_args(t, "cpu")
+    arr = lambda a: wp.array(a.reshape(-1, 4), dtype=t.vec4, device="cpu")  # noqa: E731
+    vel, inc, react = arr(v), arr(np.zeros_like(v)), arr(np.zeros_like(v))
+    A = K.kernel_structs(t)
+    grid, step = A.Grid(), A.Step()  # the members the contact kernel reads
+    grid.g_mm, grid.g_c, grid.g_x = arr(g_mm), arr(g_c), arr(g_x)
+    grid.g_vnew, grid.g_vinc, grid.g_react = vel, inc, react
+    grid.inv_h, grid.dims, grid.n_bc = 1.0 / h, wp.vec3i(*dims), 0
+    grid.bc_kind, grid.bc_vel = wp.zeros(6, dtype=wp.int32), wp.zeros(6, dtype=t.vec3)
+    step.min_mass, C.inv_dt = 1e-12, 1.0 / dt
+    wp.launch(contact_kernel(t, K.UPDATE, nf), dim=n_nodes, inputs=[0, grid, step, C, 0, n_nodes * nf], device="cpu")
+    back = lambda a: a.numpy().reshape(n_nodes, nf, 4)[..., :3]  # noqa: E731
+    return back(vel), back(inc), dt * back(react)

@@ -7,7 +7,7 @@ rigid wall (Hertz)."""
 import numpy as np
 import pytest
 import warp as wp
-from mpm_testlib import lattice
+from mpm_testlib import contact_pass, lattice
 
 from tissuempm.materials import NeoHookean
 from tissuempm.mpm import (
@@ -24,7 +24,6 @@ from tissuempm.mpm import (
     assign_fields,
 )
 from tissuempm.mpm import kernels as K
-from tissuempm.mpm.contact import contact_kernel
 from tissuempm.precision import init_warp, warp_types
 
 G = 9.81
@@ -88,21 +87,7 @@ def _nodal_contact(nf: int, rigid_field: int | None, seed: int = 0, separation: 
     v4[..., :3] = v
     contact_law = ContactLaw("friction", 0.3, separation) if law == "friction" else ContactLaw(law, 0.0, separation)
     laws = {(a, b): contact_law for a in range(nf) for b in range(a + 1, nf)}
-    C = Contact(nf, laws).kernel_args(t, "cpu")
-    arr = lambda a: wp.array(a.reshape(-1, 4), dtype=t.vec4, device="cpu")  # noqa: E731
-    vel, inc, react = arr(v4), arr(np.zeros_like(v4)), arr(np.zeros_like(v4))
-    dt = 1e-3
-    A = K.kernel_structs(t)
-    grid, step = A.Grid(), A.Step()  # the members the contact kernel reads; no grid-face conditions
-    grid.g_mm, grid.g_c, grid.g_x = arr(g_mm), arr(g_c), arr(g_x)
-    grid.g_vnew, grid.g_vinc, grid.g_react = vel, inc, react
-    grid.inv_h, grid.dims, grid.n_bc = 1.0 / h, wp.vec3i(*dims), 0
-    grid.bc_kind, grid.bc_vel = wp.zeros(6, dtype=wp.int32), wp.zeros(6, dtype=t.vec3)
-    step.min_mass, C.inv_dt = 1e-12, 1.0 / dt
-    wp.launch(contact_kernel(t, K.UPDATE, nf), dim=n_nodes, inputs=[0, grid, step, C, 0, n_nodes * nf], device="cpu")
-    after = vel.numpy().reshape(n_nodes, nf, 4)[..., :3]
-    d_inc = inc.numpy().reshape(n_nodes, nf, 4)[..., :3]
-    impulse = dt * react.numpy().reshape(n_nodes, nf, 4)[..., :3]
+    after, d_inc, impulse = contact_pass(t, Contact(nf, laws), dims, h, 1e-3, g_mm, g_c, g_x, v4)
     return g_mm[..., 3], g_c[..., 3] > 0, v, after, d_inc, impulse
 
 

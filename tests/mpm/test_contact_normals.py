@@ -11,13 +11,11 @@ import tomllib
 
 import numpy as np
 import pytest
-import warp as wp
+from mpm_testlib import contact_pass
 
 from tissuempm.analysis.relative_motion import relative_rotation
 from tissuempm.head.cavity import cavity_scenario
 from tissuempm.mpm import Contact, ContactLaw, ExplicitSolver
-from tissuempm.mpm import kernels as K
-from tissuempm.mpm.contact import contact_kernel
 from tissuempm.mpm.model import GHOST
 from tissuempm.precision import init_warp, warp_types
 from tissuempm.scenarios.build import build
@@ -90,18 +88,8 @@ def _plane_normal_error(normals: str, n_true: np.ndarray, cells: int = 28, ppc: 
     tangent /= np.linalg.norm(tangent)
     v = np.zeros((n_nodes, nf, 4))
     v[:, 1, :3] = tangent  # b slides past a at unit speed: no normal relative velocity, exactly
-    arr = lambda a: wp.array(a.reshape(-1, 4), dtype=t.vec4, device="cpu")  # noqa: E731
-    vel = arr(v)
-    C = Contact(nf, {(0, 1): ContactLaw("sliding", normals=normals)}).kernel_args(t, "cpu")
-    A = K.kernel_structs(t)
-    grid, step = A.Grid(), A.Step()
-    grid.g_mm, grid.g_c, grid.g_x = arr(g_mm), arr(np.zeros_like(g_mm)), arr(np.zeros_like(g_mm))
-    grid.g_vnew, grid.g_vinc, grid.g_react = vel, arr(np.zeros_like(v)), arr(np.zeros_like(v))
-    grid.inv_h, grid.dims, grid.n_bc = 1.0 / h, wp.vec3i(*dims), 0
-    grid.bc_kind, grid.bc_vel = wp.zeros(6, dtype=wp.int32), wp.zeros(6, dtype=t.vec3)
-    step.min_mass, C.inv_dt = 1e-12, 1.0
-    wp.launch(contact_kernel(t, K.UPDATE, nf), dim=n_nodes, inputs=[0, grid, step, C, 0, n_nodes * nf], device="cpu")
-    after = vel.numpy().reshape(n_nodes, nf, 4)[..., :3]
+    contact = Contact(nf, {(0, 1): ContactLaw("sliding", normals=normals)})
+    after, _, _ = contact_pass(t, contact, dims, h, 1.0, g_mm, np.zeros_like(g_mm), np.zeros_like(g_mm), v)
     ijk = np.stack(np.unravel_index(np.arange(n_nodes), shape), axis=1) - GHOST
     margin = 4
     interior = np.all((ijk >= margin) & (ijk <= np.array(dims) - margin), axis=1)
