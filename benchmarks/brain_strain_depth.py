@@ -7,9 +7,14 @@ rotation, the brain's rotation relative to it, and the drag, the fraction of the
 follows (:mod:`tissuempm.analysis.relative_motion`).
 
     python benchmarks/brain_strain_depth.py RUN8 RUN5 RUN4 --time 3e-3 [--json RECORD.json --tag TEXT]
+                                            [--brain BODY ...] [--heights -10 20 --near 20]
 
 ``--json`` also writes the table as a record (one row per run: the folder, cell size, contact options, the
-bands' percentiles and counts, the turns), under ``--tag``.
+bands' percentiles and counts, the turns), under ``--tag``. ``--brain`` names the brain's bodies instead (for
+a run whose labels were mapped to other materials, the brain stays the same particles). ``--heights`` adds a
+second table: the same percentile for the brain particles within ``--near`` mm of the skull and for those deeper,
+in bands of reference height z - z_c [mm] (z the head's superior axis, as in the RAS+ heads of ``tissuempm head
+build``; z_c the brain's mean height) split at the given heights: the skull base below, the vault above.
 """
 
 import argparse
@@ -26,17 +31,47 @@ from tissuempm.analysis.relative_motion import relative_rotation
 BANDS_MM = ((0, 5), (5, 10), (10, 20), (20, 40), (40, 200))
 
 
-def head_frame(path: Path, time: float) -> tuple[dict, Any, np.ndarray, np.ndarray]:
+def head_frame(path: Path, time: float, bodies: list[str] | None = None) -> tuple[dict, Any, np.ndarray, np.ndarray]:
     """(scenario, the frame nearest ``time``, brain mask, skull mask) of a run folder: the brain the bodies of
-    the ``[head] brain`` materials, the skull the ``[head] skull`` bodies (also for brain_strain_slices.py)."""
+    the ``[head] brain`` materials (or the bodies named in ``bodies``), the skull the ``[head] skull`` bodies
+    (also for brain_strain_slices.py)."""
     run = Run(path)
     sc = json.loads((path / "scenario.json").read_text())
-    brain_materials = set(sc["head"]["brain"])  # [head] brain names materials
-    brain = [i for i, b in enumerate(sc["body"]) if b.get("material") in brain_materials]
+    if bodies is None:
+        brain_materials = set(sc["head"]["brain"])  # [head] brain names materials
+        brain = [i for i, b in enumerate(sc["body"]) if b.get("material") in brain_materials]
+    else:
+        brain = [run.body_names.index(n) for n in bodies]
     skull = [run.body_names.index(n) for n in sc["head"]["skull"]]
     fr = run.load(int(np.argmin(np.abs(np.asarray(run.times) - time))))
     body = fr.field("body").astype(int)
     return sc, fr, np.isin(body, brain), np.isin(body, skull)
+
+
+def p95(values: np.ndarray, mask: np.ndarray) -> tuple[float | None, int]:
+    """(95th percentile of ``values[mask]`` or None where the mask is empty, particles in it)."""
+    n = int(mask.sum())
+    return (float(np.percentile(values[mask], 95)) if n else None), n
+
+
+def cell(value: float | None, n: int) -> str:
+    """A table cell: the percentile and its particle count."""
+    return f"{value:.4f} ({n})" if value is not None else "-"
+
+
+def by_height(z: np.ndarray, depth: np.ndarray, mps: np.ndarray, heights: list[float], near: float) -> list[dict]:
+    """p95 of ``mps`` in bands of height ``z`` - mean(z) split at ``heights`` [mm], for the particles nearer than
+    ``near`` [mm] to the skull (``depth`` [m]) and for the deeper ones."""
+    dz = (z - z.mean()) * 1e3
+    edges = [-np.inf, *sorted(heights), np.inf]
+    out = []
+    for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+        band = (dz >= lo) & (dz < hi)
+        for where, m in (("near", depth < near * 1e-3), ("deep", depth >= near * 1e-3)):
+            v, n = p95(mps, band & m)
+            ends = [float(e) if np.isfinite(e) else None for e in (lo, hi)]  # None: open-ended
+            out.append({"from_mm": ends[0], "to_mm": ends[1], "where": where, "p95_peak_mps": v, "particles": n})
+    return out
 
 
 def main() -> None:
@@ -45,28 +80,44 @@ def main() -> None:
     ap.add_argument("--time", type=float, default=3e-3, help="frame time [s] (the nearest frame; default 3e-3)")
     ap.add_argument("--json", type=Path, default=None, help="also write the rows to this JSON record")
     ap.add_argument("--tag", default="", help="a description stored in the record")
+    ap.add_argument("--brain", nargs="+", default=None, help="the brain's body names (default: [head] brain's)")
+    ap.add_argument("--heights", nargs="+", type=float, default=None,
+                    help="also split by height above the brain's mean [mm] at these values (e.g. -10 20)")  # fmt: skip
+    ap.add_argument("--near", type=float, default=20.0, help="'near the skull' for --heights [mm] (default 20)")
     args = ap.parse_args()
-    records = []
+    records, height_rows = [], []
     print("| run | cell h | " + " | ".join(f"{a}-{b} mm from the skull" for a, b in BANDS_MM)
           + " | skull turn | brain in skull | drag |")  # fmt: skip
     print("|---|---|" + "---|" * (len(BANDS_MM) + 3))
     for path in args.runs:
-        sc, fr, b, s = head_frame(path, args.time)
+        sc, fr, b, s = head_frame(path, args.time, args.brain)
         x0, x = fr.field("x0"), fr.points
         depth, _ = cKDTree(x0[s]).query(x0[b])
         mps = fr.field("peak_mps")[b]
         cells, bands = [], []
         for lo, hi in BANDS_MM:
-            band = (depth >= lo * 1e-3) & (depth < hi * 1e-3)
-            p95 = float(np.percentile(mps[band], 95)) if band.any() else None
-            cells.append(f"{p95:.4f} ({band.sum()})" if p95 is not None else "-")
-            bands.append({"from_mm": lo, "to_mm": hi, "p95_peak_mps": p95, "particles": int(band.sum())})
+            v, n = p95(mps, (depth >= lo * 1e-3) & (depth < hi * 1e-3))
+            cells.append(cell(v, n))
+            bands.append({"from_mm": lo, "to_mm": hi, "p95_peak_mps": v, "particles": n})
         turn = relative_rotation(x0[b], x[b], x0[s], x[s])
         cells += [f"{turn.outer:.3f} deg", f"{turn.relative:.3f} deg", f"{turn.drag:.3f}"]
         print(f"| {path} | {1e3 * sc['grid']['cell_size']:g} mm | " + " | ".join(cells) + " |")
         records.append({"run": str(path), "cell_size_mm": 1e3 * sc["grid"]["cell_size"], "time_s": float(fr.time),
                         "contact": sc.get("contact", []), "bands": bands, "skull_turn_deg": turn.outer,
                         "brain_in_skull_deg": turn.relative, "drag": turn.drag})  # fmt: skip
+        if args.heights:
+            records[-1]["heights"] = by_height(x0[b][:, 2], depth, mps, args.heights, args.near)
+            height_rows.append(f"| {path} | {1e3 * sc['grid']['cell_size']:g} mm | "
+                               + " | ".join(cell(r["p95_peak_mps"], r["particles"]) for r in records[-1]["heights"])
+                               + " |")  # fmt: skip
+    if height_rows:
+        edges = [-np.inf, *sorted(args.heights), np.inf]
+        pairs = zip(edges[:-1], edges[1:], strict=True)
+        names = [f"{w} {lo:g} to {hi:g} mm" for lo, hi in pairs for w in ("near", "deep")]
+        print(f"\nby height above the brain's mean (near: within {args.near:g} mm of the skull)\n")
+        print("| run | cell h | " + " | ".join(names) + " |")
+        print("|---|---|" + "---|" * len(names))
+        print("\n".join(height_rows))
     if args.json is not None:
         args.json.write_text(json.dumps({"tag": args.tag, "time_s": args.time, "rows": records}, indent=1) + "\n")
         print(f"wrote {args.json}")

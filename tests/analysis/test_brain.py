@@ -10,7 +10,7 @@ import pytest
 from scipy import integrate, optimize
 from typer.testing import CliRunner
 
-from tissuempm.analysis.brain import G0, analyse_brain, csdm, hic, weighted_percentile
+from tissuempm.analysis.brain import G0, analyse_brain, csdm, hic, regions, weighted_percentile
 from tissuempm.cli import app
 from tissuempm.io.head_history import rigid_motion
 from tissuempm.scenarios.runner import Runner
@@ -81,6 +81,20 @@ def test_csdm_and_weighted_percentile_of_a_synthetic_brain() -> None:
     assert weighted_percentile(peak, vol, 95.0) == 0.3
     assert weighted_percentile(peak, vol, 60.0) == 0.12
     assert weighted_percentile(peak, vol, 90.0) == 0.2
+
+
+def test_regions_measure_each_brain_material_on_its_own() -> None:
+    """Two materials: 0 holds strains 0.05, 0.2 (volumes 4, 1), 1 holds 0.12, 0.3 (volumes 3, 2). Material 0:
+    CSDM(0.10) = 1/5, 95th percentile 0.2; material 1: CSDM(0.10) = 1, CSDM(0.15) = CSDM(0.25) = 2/5, 95th
+    percentile 0.3; a material without particles is left out."""
+    peak = np.array([0.05, 0.12, 0.2, 0.3])
+    vol = np.array([4.0, 3.0, 1.0, 2.0])
+    out = regions(peak, vol, np.array([0, 1, 0, 1]), ["grey", "white", "stem"])
+    assert list(out) == ["grey", "white"]
+    assert out["grey"] == {"particles": 2, "volume": 5.0, "peak_mps": 0.2, "mps_95": 0.2,
+                           "csdm": {"0.10": 0.2, "0.15": 0.2, "0.25": 0.0}}  # fmt: skip
+    assert out["white"]["mps_95"] == 0.3 and out["white"]["csdm"] == pytest.approx({"0.10": 1.0, "0.15": 0.4,
+                                                                                     "0.25": 0.4})  # fmt: skip
 
 
 def test_rigid_motion_recovers_the_angular_velocity() -> None:
@@ -308,6 +322,9 @@ def test_brain_cli_on_a_tiny_run(tmp_path: Path) -> None:
     assert rep["peak_mps"] == pytest.approx(float(a["peak_mps"][sel].max()), rel=1e-12) and rep["peak_mps"] > 0.01
     vol = a["volume0"][sel]
     assert rep["csdm"]["0.10"] == pytest.approx(float(vol[a["peak_mps"][sel] > 0.1].sum() / vol.sum()))
+    # one brain material: its region is the whole brain
+    assert rep["regions"] == {"brain": {k: rep[k] for k in ("peak_mps", "mps_95", "csdm")}
+                              | {"particles": rep["brain_particles"], "volume": rep["brain_volume"]}}  # fmt: skip
     coup = next(p for p in rep["probes"] if p["name"] == "coup")
     assert coup["max_pressure"] > 0 and 0 < coup["time_of_max"] <= 0.002
     # neither block turns (the skull falls, the brain squashes symmetrically on the floor): the brain's turn

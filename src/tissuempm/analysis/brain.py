@@ -9,7 +9,8 @@ with ``[[probe]]`` or ``[head]``; :mod:`tissuempm.mpm.tracking`):
   CSDM(e) = sum of V0 over particles with peak MPS > e / sum of V0 (Takhounts et al. 2003, 2008;
   V0 the reference particle volume), at 0.10, 0.15 and 0.25, and the volume-weighted 95th
   percentile of peak MPS (:func:`weighted_percentile`); the logarithmic strain of the same
-  stretch on request (``strain="log"``);
+  stretch on request (``strain="log"``); the same for each brain material on its own
+  (:func:`regions`: cerebrum, cerebellum, brain stem, as the head-model literature reports them);
 * the peak von Mises stress, where and when;
 * the head's peak linear and angular acceleration and HIC15, HIC36 (:func:`hic`) from the skull's
   ``head_*`` columns (or, for another ``skull`` body, from its motion between frames);
@@ -42,6 +43,23 @@ XYZ = ("x", "y", "z")
 
 
 # ------------------------------------------------------------------------------------------ measures
+def strain_measures(peak: np.ndarray, volume: np.ndarray) -> dict[str, Any]:
+    """Particles, reference volume [m^3], largest peak, volume-weighted 95th percentile and CSDM at
+    :data:`CSDM_THRESHOLDS` of the particles' ``peak`` strains with reference volumes ``volume``."""
+    fractions = csdm(peak, volume, CSDM_THRESHOLDS)
+    return {"particles": int(len(peak)), "volume": float(np.sum(volume)), "peak_mps": float(np.max(peak)),
+            "mps_95": weighted_percentile(peak, volume, 95.0),
+            "csdm": {f"{e:.2f}": float(c) for e, c in zip(CSDM_THRESHOLDS, fractions, strict=True)}}  # fmt: skip
+
+
+def regions(peak: np.ndarray, volume: np.ndarray, material: np.ndarray, names: list[str]) -> dict[str, dict[str, Any]]:
+    """:func:`strain_measures` of each brain material on its own: ``material`` holds each particle's index
+    into ``names`` (the brain's materials); a material without particles is left out."""
+    material = np.asarray(material)
+    return {n: strain_measures(peak[material == k], volume[material == k])
+            for k, n in enumerate(names) if np.any(material == k)}  # fmt: skip
+
+
 def csdm(peak: np.ndarray, volume: np.ndarray, thresholds: Any) -> np.ndarray:
     """Cumulative strain damage measure: the volume fraction of particles whose ``peak`` strain
     exceeds each threshold, CSDM(e) = sum_{peak_p > e} V_p / sum_p V_p."""
@@ -124,6 +142,7 @@ class BrainReport:
     peak_von_mises_position: list[float]
     head: dict[str, Any] | None = None
     brain_in_skull: dict[str, Any] | None = None
+    regions: dict[str, dict[str, Any]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
@@ -356,7 +375,8 @@ def analyse_brain(run_dir: str | Path, brain: list[str] | None = None, skull: st
     mats = brain_materials(sc, brain)
     names = list(sc["materials"])
     brain_ids = [names.index(m) for m in mats]
-    sel = np.isin(np.asarray(data["material"]).astype(int), brain_ids)
+    material = np.asarray(data["material"]).astype(int)
+    sel = np.isin(material, brain_ids)
     if not sel.any():
         raise AnalysisError(f"no particle of the brain materials {mats} is left in the run")
     vol = np.asarray(data["volume0"], float)[sel]
@@ -364,14 +384,16 @@ def analyse_brain(run_dir: str | Path, brain: list[str] | None = None, skull: st
     if strain == "log":
         peak = log_strain(peak)
     notes = ["CSDM and the 95th percentile are weighted by the particles' reference volumes"]
+    whole = strain_measures(peak, vol)
     report = BrainReport(
         run_dir=str(run_dir), time=float(np.asarray(data["time"])), status=status, strain_measure=strain,
-        brain_materials=mats,
-        brain_particles=int(sel.sum()), brain_volume=float(vol.sum()), probes=_probe_peaks(hist, sc, probes),
-        peak_mps=float(peak.max()), mps_95=weighted_percentile(peak, vol, 95.0),
-        csdm={f"{e:.2f}": float(c) for e, c in zip(CSDM_THRESHOLDS, csdm(peak, vol, CSDM_THRESHOLDS))},
+        brain_materials=mats, brain_particles=whole["particles"], brain_volume=whole["volume"],
+        probes=_probe_peaks(hist, sc, probes), peak_mps=whole["peak_mps"], mps_95=whole["mps_95"], csdm=whole["csdm"],
         peak_von_mises=float("nan"), peak_von_mises_time=float("nan"), peak_von_mises_position=[], notes=notes,
     )  # fmt: skip
+    position = np.full(len(names), -1)  # each material's index in the brain's list
+    position[brain_ids] = np.arange(len(brain_ids))
+    report.regions = regions(peak, vol, position[material[sel]], mats)
     if "peak_von_mises" in data:
         vm = np.asarray(data["peak_von_mises"], float)[sel]
         k = int(np.argmax(vm))

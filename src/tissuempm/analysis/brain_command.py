@@ -40,6 +40,11 @@ def _table(report: BrainReport, out: Path | None) -> Table:
              f"{_g(p.spread_at_min, ' kPa', 1e-3)}) at {_g(p.time_of_min, ' ms', 1e3)}")
     _row(table, f"peak MPS ({report.strain_measure})", f"{report.peak_mps:.4g}; 95th percentile {report.mps_95:.4g}")
     _row(table, "CSDM", ", ".join(f"{k}: {v:.4f}" for k, v in report.csdm.items()))
+    if len(report.regions) > 1:
+        for name, reg in report.regions.items():
+            _row(table, f"  {name}", f"{reg['particles']} particles, {reg['volume'] * 1e6:.4g} cm^3: peak MPS "
+                                     f"{reg['peak_mps']:.4g}, 95th percentile {reg['mps_95']:.4g}; CSDM "
+                                     + ", ".join(f"{k}: {v:.4f}" for k, v in reg["csdm"].items()))  # fmt: skip
     _row(table, "peak von Mises",
          f"{_g(report.peak_von_mises, ' kPa', 1e-3)} at {_g(report.peak_von_mises_time, ' ms', 1e3)}")
     h = report.head or {}
