@@ -132,6 +132,42 @@ def test_head_scale_scales_the_volume():
     assert abs(b / a - s**3) < 1e-9  # the same voxels, each of volume (s h)^3
 
 
+def test_a_larger_hull_radius_fills_wider_sulci_with_csf():
+    """The same brain voxels closed by a 15 mm ball instead of 5 mm: the brain labels are unchanged, the hull
+    (brain, ventricles and CSF) only grows (a closing by a larger ball contains the smaller one's), the CSF gains
+    what the hull gains, and the skull's inner surface, the hull's boundary, holds fewer voxel faces for the
+    hull's larger volume (the sphericity index area^1.5 / volume falls)."""
+    pytest.importorskip("nilearn")
+    from tissuempm.head.labels import LABEL
+
+    a, _ = build_head(0.006)
+    b, _ = build_head(0.006, hull_radius=0.015)
+    brain = [LABEL[n] for n in ("cerebrum_grey_matter", "cerebrum_white_matter", "cerebellum_grey_matter",
+                                "cerebellum_white_matter", "brain_stem")]  # fmt: skip
+    np.testing.assert_array_equal(np.isin(a, brain), np.isin(b, brain))
+    hull_a = (a >= 1) & (a <= LABEL["csf"])
+    hull_b = (b >= 1) & (b <= LABEL["csf"])
+    assert np.all(hull_b[hull_a]) and hull_b.sum() > 1.01 * hull_a.sum()  # 10,532 against 10,362 voxels
+    assert (b == LABEL["csf"]).sum() - (a == LABEL["csf"]).sum() == hull_b.sum() - hull_a.sum() - (
+        (b == LABEL["ventricles"]).sum() - (a == LABEL["ventricles"]).sum())
+
+    def faces(m):
+        return sum(int(np.abs(np.diff(m.astype(np.int8), axis=k)).sum()) for k in range(3))
+
+    assert faces(hull_b) ** 1.5 / hull_b.sum() < 0.95 * faces(hull_a) ** 1.5 / hull_a.sum()  # 22.1 against 24.6
+
+
+@pytest.mark.parametrize("args, text", [(["--hull-radius", "50 mm"], "--hull-radius '50 mm' = 0.05 m is out of range: "
+                                         "choose 1 mm to 30 mm"),
+                                        (["--hull-radius", "5 kg"], "wrong unit"),
+                                        (["--synthetic", "--hull-radius", "10 mm"], "the --synthetic head has none")])  # fmt: skip
+def test_command_bad_hull_radius_exits_2_and_writes_nothing(tmp_path, args, text):
+    result = CliRunner().invoke(app, ["head", "build", "--resolution", "8 mm", "--out", str(tmp_path / "h.nii.gz"),
+                                      *args])  # fmt: skip
+    assert result.exit_code == 2 and text in " ".join(result.output.split()), result.output
+    assert "Traceback" not in result.output and list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.slow
 def test_icbm_head_at_1_mm_layer_thicknesses():
     """At 1 mm the layers take their literature thicknesses rounded to whole voxels."""

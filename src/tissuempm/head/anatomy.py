@@ -11,8 +11,9 @@ grid after the probability maps are averaged over each target voxel:
 
 1. **Brain**: ``p_gm + p_wm >= 0.5``, its largest connected component; white matter where
    ``p_wm >= p_gm``, grey matter elsewhere.
-2. **Brain hull**: the brain closed with a ball of :data:`HULL_RADIUS` and its holes filled: the
-   intracranial volume the layers are grown around.
+2. **Brain hull**: the brain closed with a ball of :data:`HULL_RADIUS` (or the ``hull_radius`` given) and
+   its holes filled: the intracranial volume the layers are grown around. A larger ball bridges wider
+   fissures and gives a smoother inner skull surface (the real inner table does not follow the gyri).
 3. **Ventricles**: the connected components (6-connected) of the hull voxels that are not brain
    and that nowhere come within ``max(`` :data:`VENTRICLE_DEPTH` ``, 1.5 h)`` of the hull surface
    (the CSF the tissue encloses), of at least :data:`VENTRICLE_MIN_VOLUME`. The rest of the
@@ -123,8 +124,10 @@ def closing(mask: np.ndarray, radius: float, h: float) -> np.ndarray:
     return ndimage.distance_transform_edt(dilated, sampling=h) > radius
 
 
-def segment_brain(maps: dict[str, np.ndarray], affine_mm: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray]:
-    """Masks of the brain labels (by body name) and the brain hull, rules 1-5 of the module."""
+def segment_brain(maps: dict[str, np.ndarray], affine_mm: np.ndarray,
+                  hull_radius: float = HULL_RADIUS) -> tuple[dict[str, np.ndarray], np.ndarray]:  # fmt: skip
+    """Masks of the brain labels (by body name) and the brain hull, rules 1-5 of the module (the hull closed
+    by a ball of ``hull_radius`` [mm], at least one voxel)."""
     from scipy import ndimage
 
     h = float(affine_mm[0, 0])
@@ -135,7 +138,7 @@ def segment_brain(maps: dict[str, np.ndarray], affine_mm: np.ndarray) -> tuple[d
         raise AnatomyError("no brain voxel in the templates at this resolution")
     brain = comp == (np.argmax(ndimage.sum(brain, comp, range(1, n + 1))) + 1)
     white = brain & (wm >= gm)
-    hull = ndimage.binary_fill_holes(closing(brain, max(HULL_RADIUS, h), h)) | brain
+    hull = ndimage.binary_fill_holes(closing(brain, max(hull_radius, h), h)) | brain
     depth = ndimage.distance_transform_edt(hull, sampling=h)
     fluid = hull & ~brain
     comp, _ = ndimage.label(fluid)

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tissuempm.head.anatomy import HULL_RADIUS
 from tissuempm.head.labels import HEAD_LABELS, LABEL
 
 LAYERS: tuple[tuple[str, float], ...] = (
@@ -40,6 +41,9 @@ LAYERS: tuple[tuple[str, float], ...] = (
 Full references in docs/head.md.
 """
 
+HULL_RADIUS_RANGE = (0.001, 0.030)
+"""Radii [m] of the ball closing the brain into its hull that ``build_head`` accepts (the default,
+:data:`tissuempm.head.anatomy.HULL_RADIUS`, is 5 mm)."""
 MIN_RESOLUTION = 0.0005
 """Finest build [m]: the templates are 1 mm; 0.5 mm only interpolates them."""
 MAX_RESOLUTION = 0.010
@@ -79,8 +83,8 @@ def add_layers(labels: np.ndarray, hull: np.ndarray, resolution: float,
     return out
 
 
-def build_head(resolution: float = 0.004, scale: float = 1.0,
-               layers: tuple[tuple[str, float], ...] = LAYERS) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def build_head(resolution: float = 0.004, scale: float = 1.0, layers: tuple[tuple[str, float], ...] = LAYERS,
+               hull_radius: float = HULL_RADIUS * 1e-3) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """The head from the ICBM 2009a templates: (labels int32 (I, J, K), 4x4 affine voxel -> RAS+ [m]).
 
     Parameters
@@ -92,17 +96,22 @@ def build_head(resolution: float = 0.004, scale: float = 1.0,
         adult's; 0.92 brings the 1.68 L of the template's brain to 1.3 L).
     layers
         (name, thickness [m]) of the CSF, skull and scalp layers (default :data:`LAYERS`).
+    hull_radius
+        Radius [m] of the ball that closes the brain into the intracranial hull (1 to 30 mm; default 5 mm,
+        :data:`tissuempm.head.anatomy.HULL_RADIUS`): larger bridges wider sulci and fissures with CSF and
+        smooths the skull's inner surface.
 
     Raises
     ------
     HeadError
-        A resolution or scale out of range; nilearn (the templates) not installed.
+        A resolution, scale or hull radius out of range; nilearn (the templates) not installed.
     """
     from tissuempm.head.anatomy import AnatomyError, load_templates, resample, segment_brain
 
     h = check_resolution(resolution)
     if not (math.isfinite(scale) and 0.5 <= scale <= 1.5):
         raise HeadError(f"scale = {scale!r} is out of range: choose 0.5 to 1.5")
+    r_hull = check_resolution(hull_radius, *HULL_RADIUS_RANGE, name="hull radius")
     try:
         maps, affine = load_templates()
     except AnatomyError as e:
@@ -110,7 +119,7 @@ def build_head(resolution: float = 0.004, scale: float = 1.0,
     h_mm = h * 1e3
     pad = sum(t for _, t in effective_layers(h, layers)) * 1e3 + 2 * h_mm
     maps, affine_mm = resample(maps, affine, h_mm, pad)
-    masks, hull = segment_brain(maps, affine_mm)
+    masks, hull = segment_brain(maps, affine_mm, r_hull * 1e3)
     labels = np.zeros(hull.shape, dtype=np.int32)
     for name, mask in masks.items():
         labels[mask] = LABEL[name]

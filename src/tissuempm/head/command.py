@@ -39,19 +39,30 @@ def build(
     ] = False,
     figure: Annotated[Path | None, typer.Option("--figure", help="PNG of the slices (default: next to --out).")] = None,
     scale: Annotated[float, typer.Option("--scale", help="Isotropic scale of the ICBM head (1: MNI space).")] = 1.0,
+    hull_radius: Annotated[str | None, typer.Option("--hull-radius", help="Ball closing the ICBM brain into the "
+                                                    "intracranial hull, e.g. '15 mm' (1 to 30 mm; default 5 mm): "
+                                                    "larger fills wider sulci with CSF and smooths the skull's "
+                                                    "inner surface.")] = None,
 ) -> None:
     """Write the head: NAME.nii.gz (labels), NAME.labels.toml (label -> tissue), NAME.json (volumes) and NAME.png.
 
     Point a scenario at it with [[label_volume]] file = "NAME.nii.gz", table = "NAME.labels.toml"
     (docs/head.md).
     """
-    from tissuempm.head.build import build_head, check_resolution, outputs, write_outputs
+    from tissuempm.head.anatomy import HULL_RADIUS
+    from tissuempm.head.build import HULL_RADIUS_RANGE, build_head, check_resolution, outputs, write_outputs
     from tissuempm.scenarios.units import UnitError, parse_quantity
 
     try:
         h = parse_quantity(resolution, "m")
     except UnitError as e:
         raise _fail(f"--resolution {resolution!r}: {e} (give a length such as '4 mm')") from None
+    if synthetic and hull_radius is not None:
+        raise _fail("--hull-radius shapes the ICBM head's intracranial hull: the --synthetic head has none")
+    try:
+        r_hull = HULL_RADIUS * 1e-3 if hull_radius is None else parse_quantity(hull_radius, "m")
+    except UnitError as e:
+        raise _fail(f"--hull-radius {hull_radius!r}: {e} (give a length such as '5 mm')") from None
     try:
         paths = outputs(out, figure)
         if synthetic:
@@ -60,8 +71,11 @@ def build(
             labels, affine = synthetic_head(check_resolution(h, 2e-4, 0.02, f"--resolution {resolution!r}"))
             meta: dict[str, object] = {"source": "synthetic (nested ellipsoids, tissuempm.head.synthetic)"}
         else:
-            labels, affine = build_head(check_resolution(h, name=f"--resolution {resolution!r}"), scale=scale)
-            meta = {"source": "ICBM 2009a nonlinear symmetric (Fonov et al. 2009, 2011), via nilearn", "scale": scale}
+            labels, affine = build_head(check_resolution(h, name=f"--resolution {resolution!r}"), scale=scale,
+                                        hull_radius=check_resolution(r_hull, *HULL_RADIUS_RANGE,
+                                                                     f"--hull-radius {hull_radius!r}"))  # fmt: skip
+            meta = {"source": "ICBM 2009a nonlinear symmetric (Fonov et al. 2009, 2011), via nilearn", "scale": scale,
+                    "hull_radius_mm": r_hull * 1e3}  # fmt: skip
         meta.update(resolution_mm=h * 1e3, title=f"{'synthetic' if synthetic else 'ICBM 2009a'} head, {h * 1e3:g} mm")
         stats = write_outputs(out, labels, affine, figure, meta)
     except (ValueError, OSError) as e:
