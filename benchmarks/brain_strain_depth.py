@@ -64,12 +64,13 @@ def by_height(z: np.ndarray, depth: np.ndarray, mps: np.ndarray, heights: list[f
     ``near`` [mm] to the skull (``depth`` [m]) and for the deeper ones."""
     dz = (z - z.mean()) * 1e3
     edges = [-np.inf, *sorted(heights), np.inf]
+    is_near = depth < near * 1e-3
     out = []
     for lo, hi in zip(edges[:-1], edges[1:], strict=True):
         band = (dz >= lo) & (dz < hi)
-        for where, m in (("near", depth < near * 1e-3), ("deep", depth >= near * 1e-3)):
+        ends = [float(e) if np.isfinite(e) else None for e in (lo, hi)]  # None: open-ended
+        for where, m in (("near", is_near), ("deep", ~is_near)):
             v, n = p95(mps, band & m)
-            ends = [float(e) if np.isfinite(e) else None for e in (lo, hi)]  # None: open-ended
             out.append({"from_mm": ends[0], "to_mm": ends[1], "where": where, "p95_peak_mps": v, "particles": n})
     return out
 
@@ -110,10 +111,9 @@ def main() -> None:
             height_rows.append(f"| {path} | {1e3 * sc['grid']['cell_size']:g} mm | "
                                + " | ".join(cell(r["p95_peak_mps"], r["particles"]) for r in records[-1]["heights"])
                                + " |")  # fmt: skip
-    if height_rows:
-        edges = [-np.inf, *sorted(args.heights), np.inf]
-        pairs = zip(edges[:-1], edges[1:], strict=True)
-        names = [f"{w} {lo:g} to {hi:g} mm" for lo, hi in pairs for w in ("near", "deep")]
+    if height_rows:  # the columns as by_height named them (None: open-ended)
+        names = [f"{r['where']} {r['from_mm'] if r['from_mm'] is not None else '-inf'} to "
+                 f"{r['to_mm'] if r['to_mm'] is not None else 'inf'} mm" for r in records[-1]["heights"]]  # fmt: skip
         print(f"\nby height above the brain's mean (near: within {args.near:g} mm of the skull)\n")
         print("| run | cell h | " + " | ".join(names) + " |")
         print("|---|---|" + "---|" * len(names))
