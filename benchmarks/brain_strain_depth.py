@@ -112,8 +112,9 @@ def main() -> None:
                                + " | ".join(cell(r["p95_peak_mps"], r["particles"]) for r in records[-1]["heights"])
                                + " |")  # fmt: skip
     if height_rows:  # the columns as by_height named them (None: open-ended)
-        names = [f"{r['where']} {r['from_mm'] if r['from_mm'] is not None else '-inf'} to "
-                 f"{r['to_mm'] if r['to_mm'] is not None else 'inf'} mm" for r in records[-1]["heights"]]  # fmt: skip
+        ends = [[-np.inf if r["from_mm"] is None else r["from_mm"], np.inf if r["to_mm"] is None else r["to_mm"]]
+                for r in records[-1]["heights"]]  # fmt: skip
+        names = [f"{r['where']} {lo:g} to {hi:g} mm" for r, (lo, hi) in zip(records[-1]["heights"], ends, strict=True)]
         print(f"\nby height above the brain's mean (near: within {args.near:g} mm of the skull)\n")
         print("| run | cell h | " + " | ".join(names) + " |")
         print("|---|---|" + "---|" * len(names))
