@@ -9,8 +9,8 @@ follows (:mod:`tissuempm.analysis.relative_motion`).
     python benchmarks/brain_strain_depth.py RUN8 RUN5 RUN4 --time 3e-3 [--json RECORD.json --tag TEXT]
                                             [--brain BODY ...] [--heights -10 20 --near 20]
 
-``--json`` also writes the table as a record (one row per run: the folder, cell size, contact options, the
-bands' percentiles and counts, the turns), under ``--tag``. ``--brain`` names the brain's bodies instead (for
+``--json`` also writes the table as a record (one row per run: the folder, cell size, the brain's particles per
+cell, contact options, the bands' percentiles and counts, the turns), under ``--tag``. ``--brain`` names the brain's bodies instead (for
 a run whose labels were mapped to other materials, the brain stays the same particles). ``--heights`` adds a
 second table: the same percentile for the brain particles within ``--near`` mm of the skull and for those deeper,
 in bands of reference height z - z_c [mm] (z the head's superior axis, as in the RAS+ heads of ``tissuempm head
@@ -46,6 +46,13 @@ def head_frame(path: Path, time: float, bodies: list[str] | None = None) -> tupl
     fr = run.load(int(np.argmin(np.abs(np.asarray(run.times) - time))))
     body = fr.field("body").astype(int)
     return sc, fr, np.isin(body, brain), np.isin(body, skull)
+
+
+def level(sc: dict, brain: np.ndarray, body: np.ndarray) -> tuple[float, int | None]:
+    """(cell size [mm], particles per cell per axis of the brain's bodies, None where they differ): the
+    particle spacing is their ratio."""
+    ppc = {sc["body"][i]["particles_per_cell"] for i in np.unique(body[brain])}
+    return 1e3 * sc["grid"]["cell_size"], (ppc.pop() if len(ppc) == 1 else None)
 
 
 def p95(values: np.ndarray, mask: np.ndarray) -> tuple[float | None, int]:
@@ -87,7 +94,7 @@ def main() -> None:
     ap.add_argument("--near", type=float, default=20.0, help="'near the skull' for --heights [mm] (default 20)")
     args = ap.parse_args()
     records, height_rows = [], []
-    print("| run | cell h | " + " | ".join(f"{a}-{b} mm from the skull" for a, b in BANDS_MM)
+    print("| run | cell h, particles per cell | " + " | ".join(f"{a}-{b} mm from the skull" for a, b in BANDS_MM)
           + " | skull turn | brain in skull | drag |")  # fmt: skip
     print("|---|---|" + "---|" * (len(BANDS_MM) + 3))
     for path in args.runs:
@@ -95,6 +102,8 @@ def main() -> None:
         x0, x = fr.field("x0"), fr.points
         depth, _ = cKDTree(x0[s]).query(x0[b])
         mps = fr.field("peak_mps")[b]
+        h_mm, ppc = level(sc, b, fr.field("body").astype(int))
+        row = f"| {path} | {h_mm:g} mm, {ppc if ppc else 'mixed'} | "
         cells, bands = [], []
         for lo, hi in BANDS_MM:
             v, n = p95(mps, (depth >= lo * 1e-3) & (depth < hi * 1e-3))
@@ -102,21 +111,20 @@ def main() -> None:
             bands.append({"from_mm": lo, "to_mm": hi, "p95_peak_mps": v, "particles": n})
         turn = relative_rotation(x0[b], x[b], x0[s], x[s])
         cells += [f"{turn.outer:.3f} deg", f"{turn.relative:.3f} deg", f"{turn.drag:.3f}"]
-        print(f"| {path} | {1e3 * sc['grid']['cell_size']:g} mm | " + " | ".join(cells) + " |")
-        records.append({"run": str(path), "cell_size_mm": 1e3 * sc["grid"]["cell_size"], "time_s": float(fr.time),
+        print(row + " | ".join(cells) + " |")
+        records.append({"run": str(path), "cell_size_mm": h_mm, "particles_per_cell": ppc, "time_s": float(fr.time),
                         "contact": sc.get("contact", []), "bands": bands, "skull_turn_deg": turn.outer,
                         "brain_in_skull_deg": turn.relative, "drag": turn.drag})  # fmt: skip
         if args.heights:
             records[-1]["heights"] = by_height(x0[b][:, 2], depth, mps, args.heights, args.near)
-            height_rows.append(f"| {path} | {1e3 * sc['grid']['cell_size']:g} mm | "
-                               + " | ".join(cell(r["p95_peak_mps"], r["particles"]) for r in records[-1]["heights"])
+            height_rows.append(row + " | ".join(cell(r["p95_peak_mps"], r["particles"]) for r in records[-1]["heights"])
                                + " |")  # fmt: skip
     if height_rows:  # the columns as by_height named them (None: open-ended)
         ends = [[-np.inf if r["from_mm"] is None else r["from_mm"], np.inf if r["to_mm"] is None else r["to_mm"]]
                 for r in records[-1]["heights"]]  # fmt: skip
         names = [f"{r['where']} {lo:g} to {hi:g} mm" for r, (lo, hi) in zip(records[-1]["heights"], ends, strict=True)]
         print(f"\nby height above the brain's mean (near: within {args.near:g} mm of the skull)\n")
-        print("| run | cell h | " + " | ".join(names) + " |")
+        print("| run | cell h, particles per cell | " + " | ".join(names) + " |")
         print("|---|---|" + "---|" * len(names))
         print("\n".join(height_rows))
     if args.json is not None:

@@ -45,3 +45,24 @@ def test_brain_strain_height_bands_hold_the_particles_of_each_band():
     assert got == [(None, -10.0, "near", 0.031, 10), (None, -10.0, "deep", 0.03, 10),
                    (-10.0, 20.0, "near", 0.021, 10), (-10.0, 20.0, "deep", 0.02, 10),
                    (20.0, None, "near", 0.011, 10), (20.0, None, "deep", 0.01, 10)]  # fmt: skip
+
+
+def test_brain_strain_level_names_the_particle_spacing_of_the_brain_bodies_only():
+    """The level of a run is its cell size and the particles per cell of the bodies the brain mask holds: a
+    skull body seeded otherwise does not change it, two brain bodies seeded differently give None."""
+    level = _script("brain_strain_depth").level
+    sc = {"grid": {"cell_size": 0.006},
+          "body": [{"particles_per_cell": 3}, {"particles_per_cell": 3}, {"particles_per_cell": 2}]}  # fmt: skip
+    body = np.array([0, 1, 2, 2])
+    assert level(sc, np.array([True, True, False, False]), body) == (6.0, 3)
+    assert level(sc, np.array([True, False, True, False]), body) == (6.0, None)
+
+
+def test_brain_strain_levels_join_runs_by_particles_per_cell_and_by_particle_spacing():
+    """Five runs (8/6/4 mm at 2 per cell, 8 mm at 4 and 6 mm at 3: the last two and 4 mm at 2 share the 2 mm
+    spacing) and one with mixed seeding: two groups of several runs, each from the coarsest cell down."""
+    series = _script("brain_strain_levels").series
+    rows = [{"run": n, "cell_size_mm": h, "particles_per_cell": p}
+            for n, h, p in (("a", 8, 2), ("b", 6, 2), ("c", 4, 2), ("d", 8, 4), ("e", 6, 3), ("f", 6, None))]  # fmt: skip
+    got = {k: [r["run"] for r in v] for k, v in series(rows).items()}
+    assert got == {("ppc", 2): ["a", "b", "c"], ("spacing", 2.0): ["d", "e", "c"]}
