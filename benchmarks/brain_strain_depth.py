@@ -12,10 +12,10 @@ follows (:mod:`tissuempm.analysis.relative_motion`).
 ``--json`` also writes the table as a record (one row per run: the folder, cell size, the brain's particles per
 cell, contact options, the bands' percentiles and counts, the turns), under ``--tag``. ``--brain`` names the
 brain's bodies instead (for a run whose labels were mapped to other materials, the brain stays the same
-particles). ``--heights`` adds a
-second table: the same percentile for the brain particles within ``--near`` mm of the skull and for those deeper,
-in bands of reference height z - z_c [mm] (z the head's superior axis, as in the RAS+ heads of ``tissuempm head
-build``; z_c the brain's mean height) split at the given heights: the skull base below, the vault above.
+particles). ``--heights`` adds a second table: the same percentile for the brain particles within ``--near`` mm
+of the skull and for those deeper, in bands of reference height z - z_c [mm] (z the head's superior axis, as in
+the RAS+ heads of ``tissuempm head build``; z_c the brain's mean height) split at the given heights: the skull
+base below, the vault above.
 """
 
 import argparse
