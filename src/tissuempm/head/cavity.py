@@ -12,6 +12,9 @@ K = 2.19 GPa, long-term shear modulus about 8 kPa) fills a spherical cavity. Two
   voxelized cavity (``geometry = "voxel"``: the sphere and shell as 4 mm voxels of a label volume) has
   steps that push the fill round.
 
+A third known answer, for cavities that are not spheres: :func:`ellipsoid_turn_strain`, the uniform strain
+of a fill in a turning ellipsoid (the synthetic head's cavity; ``benchmarks/ellipsoid_turn_strain.py``).
+
 Walls: ``rigid`` (a rigid shell, 14 mm: the contact's rigid path) or ``deformable`` (a ``skull_cortical``
 shell held by a bonded rigid shell round it: the deformable path the head models take). Used by
 ``benchmarks/brain_cavity_strain.py`` and ``tests/mpm/test_contact_normals.py`` (docs/validation.md,
@@ -24,6 +27,29 @@ from pathlib import Path
 import numpy as np
 
 VOXEL_MM = 4.0
+
+
+def ellipsoid_turn_strain(semi_axes: tuple[float, float], angle: float) -> float:
+    """The exact maximum principal strain of an inviscid, incompressible fill of an ellipsoidal cavity that
+    turns by ``angle`` [rad] about one of its principal axes from rest, ``semi_axes`` (b, c) the two
+    semi-axes across that axis (any unit)::
+
+        e = |b^2 - c^2| / (b^2 + c^2) |angle|                                              (small strain)
+
+    Started from rest, the fill's motion stays irrotational (Kelvin), so its velocity is the potential
+    flow whose normal velocity on the wall is the wall's: turning about x at omega(t), the wall's normal
+    velocity on (y/b)^2 + (z/c)^2 + ... = 1 is omega y z (1/c^2 - 1/b^2) along the unnormalised normal
+    (., y/b^2, z/c^2), matched by phi = omega k y z with k = (b^2 - c^2) / (b^2 + c^2) (the classical
+    liquid in a rotating ellipsoidal vessel; the derivation is this paragraph). Its rate of strain is uniform, with
+    principal values +-omega k across the axis, so the strain is uniform too: +-k times the turn. A sphere
+    (b = c) is not strained at all. The fill's shear stiffness is neglected: for the brain on milliseconds
+    (about 18 kPa) against the turn's inertial pressures (rho alpha R^2, tens of kPa) it changes the answer
+    by well under 1 % (docs/validation.md, "The head's cavity under a uniform acceleration, and the turn
+    alone")."""
+    b, c = (float(v) for v in semi_axes)
+    if not (b > 0.0 and c > 0.0):
+        raise ValueError(f"semi_axes = {semi_axes!r}: both must be > 0")
+    return abs(b * b - c * c) / (b * b + c * c) * abs(float(angle))
 
 
 def _sphere(r_mm: float) -> str:
