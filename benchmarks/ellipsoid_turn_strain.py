@@ -62,7 +62,7 @@ def main() -> None:
     args = ap.parse_args()
     b, c = cavity_semi_axes()
     print(f"cavity semi-axes across x: {b * 1e3:g} mm (y), {c * 1e3:g} mm (z); "
-          f"exact strain = {abs(b * b - c * c) / (b * b + c * c):.4f} x the skull's turn\n")  # fmt: skip
+          f"exact strain = {ellipsoid_turn_strain((b, c), 1.0):.4f} x the skull's turn\n")  # fmt: skip
     head = "| run | cell h, particles per cell | skull turn | exact | " + " | ".join(
         f"{lo}-{hi} mm: median, p95 (ratios)" for lo, hi in BANDS_MM) + " |"  # fmt: skip
     print(head + "\n|" + "---|" * (4 + len(BANDS_MM)))
