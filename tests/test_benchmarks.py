@@ -66,3 +66,22 @@ def test_brain_strain_levels_join_runs_by_particles_per_cell_and_by_particle_spa
             for n, h, p in (("a", 8, 2), ("b", 6, 2), ("c", 4, 2), ("d", 8, 4), ("e", 6, 3), ("f", 6, None))]  # fmt: skip
     got = {k: [r["run"] for r in v] for k, v in series(rows).items()}
     assert got == {("ppc", 2): ["a", "b", "c"], ("spacing", 2.0): ["d", "e", "c"]}
+
+
+def test_held_head_keeps_its_rigid_holder_the_stated_distance_outside_the_bone():
+    """A ball head (brain 1 inside skull 8 inside scalp 11, 1 mm voxels): the scalp's voxels become outer
+    table (10), ``bone`` mm of outer table are grown round the head and a holder (11) of ``holder`` mm round
+    that; every holder voxel lies more than ``bone`` mm (and within bone + holder + 1 voxel) from the old head,
+    and the brain and skull are untouched."""
+    held_labels = _script("held_head").held_labels
+    r = np.linalg.norm(np.indices((61, 61, 61)) - 30.0, axis=0)
+    labels = np.where(r <= 10, 1, np.where(r <= 14, 8, np.where(r <= 18, 11, 0))).astype(np.int16)
+    out = held_labels(labels, voxel_mm=1.0, bone_mm=6.0, holder_mm=4.0)
+    old_head = labels > 0
+    assert np.array_equal(out[labels == 1], labels[labels == 1]) and np.all(out[labels == 8] == 8)
+    assert np.all(out[labels == 11] == 10)
+    from scipy import ndimage
+
+    dist = ndimage.distance_transform_edt(~old_head)  # mm from the old head
+    assert dist[out == 11].min() > 6.0 and dist[out == 11].max() <= 11.0
+    assert np.all(out[(dist > 0) & (dist <= 6.0)] == 10)
