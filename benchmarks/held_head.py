@@ -11,7 +11,8 @@ This script writes a head whose holder is out of that reach: the scalp's voxels 
 (``skull_cortical``, bonded to the skull), ``--bone`` more millimetres of outer table are grown round
 it, and a rigid holder of ``--holder`` millimetres round that takes the scalp's label, so the scenario's
 ``[materials.skin] kind = "rigid"`` holds it. Beside the volume it writes the label table and the two
-held-skull scenarios with their label volume pointed at it and the grid widened to hold it::
+held-skull scenarios with their label volume pointed at it and the grid's upper corner widened to hold it (the lower
+corner, and so the node and particle lattice, stays the scenario's)::
 
     python benchmarks/held_head.py --out runs/held            # after `tissuempm head build` (examples/validation)
     tissuempm run runs/held/icbm_cavity_translation.toml --out runs/held/t8 --set 'grid.cell_size="8 mm"'
@@ -24,46 +25,32 @@ mass (one step of the scenario; no run).
 import argparse
 import re
 import shutil
+import tomllib
 from pathlib import Path
 
 import nibabel as nib
 import numpy as np
 from scipy import ndimage
 
+from tissuempm.head.labels import LABEL
+from tissuempm.scenarios.units import parse_quantity
+
 HERE = Path(__file__).resolve().parent.parent / "examples" / "validation"
-SCALP, OUTER_TABLE = 11, 10
-
-
-def ball(radius_vox: int) -> np.ndarray:
-    """Voxel ball of the given radius (the structuring element of one dilation)."""
-    r = np.arange(-radius_vox, radius_vox + 1)
-    return (r[:, None, None] ** 2 + r[None, :, None] ** 2 + r[None, None, :] ** 2) <= radius_vox**2
+SCALP, OUTER_TABLE = LABEL["scalp"], LABEL["skull_outer_table"]
 
 
 def held_labels(labels: np.ndarray, voxel_mm: float, bone_mm: float, holder_mm: float) -> np.ndarray:
     """The labels with the scalp made outer table, ``bone_mm`` more outer table round the head and a holder
-    (the scalp's label) of ``holder_mm`` round that, each grown by a ball dilation of the head's mask."""
+    (the scalp's label) of ``holder_mm`` round that: the voxels within each distance of the mask inside them
+    (Euclidean distance, as ``tissuempm head build`` grows its layers)."""
     out = labels.copy()
     out[out == SCALP] = OUTER_TABLE
     head = out > 0
-    grown = ndimage.binary_dilation(head, ball(round(bone_mm / voxel_mm)))
+    grown = ndimage.distance_transform_edt(~head, sampling=voxel_mm) <= bone_mm
     out[grown & ~head] = OUTER_TABLE
-    held = ndimage.binary_dilation(grown, ball(round(holder_mm / voxel_mm)))
+    held = ndimage.distance_transform_edt(~grown, sampling=voxel_mm) <= holder_mm
     out[held & ~grown] = SCALP
     return out
-
-
-def _row(text: str, key: str) -> list[str]:
-    """The items of the scenario's first ``key = [...]`` line (the grid's corner)."""
-    line = re.search(rf"(?m)^{key} = \[(.*)\]", text)
-    assert line is not None, key
-    return [v.strip() for v in line.group(1).split(",")]
-
-
-def _mm(item: str) -> float:
-    """A corner coordinate ``0`` or ``"-168 mm"`` in millimetres."""
-    item = item.strip('"')
-    return float(item.removesuffix("mm").strip()) if item.endswith("mm") else 1e3 * float(item)
 
 
 def write(head: Path, out: Path, bone_mm: float, holder_mm: float, margin_mm: float) -> None:
@@ -85,12 +72,13 @@ def write(head: Path, out: Path, bone_mm: float, holder_mm: float, margin_mm: fl
     hi = (affine @ np.r_[idx.max(0), 1])[:3]
     for name in ("icbm_cavity_translation.toml", "icbm_cavity_turn.toml"):
         text = (HERE / name).read_text()
-        lower = [_mm(v) for v in _row(text, "lower")]
-        upper = [_mm(v) for v in _row(text, "upper")]
-        # the same lower corner (the same node and particle lattice as the scenario's runs), widened where needed
-        lower = [min(lower[a], float(np.floor(lo[a] - margin_mm))) if a else lower[a] for a in range(3)]
+        grid = tomllib.loads(text)["grid"]
+        lower = [1e3 * parse_quantity(v, "m") for v in grid["lower"]]
+        upper = [1e3 * parse_quantity(v, "m") for v in grid["upper"]]
+        # the same lower corner: the same node and particle lattice as the scenario's own runs
+        if any(lo[a] - margin_mm < lower[a] for a in (1, 2)):
+            raise SystemExit(f"{name}: the held head reaches below the grid's lower corner {lower} mm")
         upper = [max(upper[a], float(np.ceil(hi[a] + margin_mm))) for a in range(3)]
-        text = re.sub(r'(?m)^lower = .*$', "lower = [" + ", ".join(f'"{v:g} mm"' for v in lower) + "]", text, count=1)
         text = re.sub(r'(?m)^upper = .*$', "upper = [" + ", ".join(f'"{v:g} mm"' for v in upper) + "]", text, count=1)
         (out / name).write_text(
             f"# Written by benchmarks/held_head.py (--bone {bone_mm:g} --holder {holder_mm:g}) from "

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy import ndimage
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 
@@ -80,8 +81,6 @@ def test_held_head_keeps_its_rigid_holder_the_stated_distance_outside_the_bone()
     old_head = labels > 0
     assert np.array_equal(out[labels == 1], labels[labels == 1]) and np.all(out[labels == 8] == 8)
     assert np.all(out[labels == 11] == 10)
-    from scipy import ndimage
-
     dist = ndimage.distance_transform_edt(~old_head)  # mm from the old head
     assert dist[out == 11].min() > 6.0 and dist[out == 11].max() <= 11.0
     assert np.all(out[(dist > 0) & (dist <= 6.0)] == 10)
